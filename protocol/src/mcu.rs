@@ -1,0 +1,706 @@
+//! The Mega's whole behaviour as a pure state machine (original-system.md §2.4–2.7, fixed
+//! per §10.1, §10.4, §10.5).
+//!
+//! The firmware runs this on the chip and the host simulator runs the very same code, so
+//! every simulation exercises the wheel-level logic that drives the real robot. Nothing here
+//! touches hardware or reads a clock: the caller passes the time (`now_us`, a wrapping `u32`
+//! of microseconds) and the sampled inputs, and applies the returned outputs.
+//!
+//! The caller's loop:
+//!
+//! 1. at boot, send the bytes of [`Mcu::boot`] (the reset frame `r00000000`);
+//! 2. pass every received byte chunk to [`Mcu::receive`], then apply [`Mcu::solenoid_on`]
+//!    (the solenoid follows `L` at once, as in the original);
+//! 3. every control period ([`McuConfig::control_period_us`]), call [`Mcu::control_tick`]
+//!    with the encoder deltas since the previous tick and the switch level, write the
+//!    returned PWMs to the motors and send the returned telemetry batch.
+//!
+//! Behaviour:
+//!
+//! - `G`..`J` set a wheel's speed reference and enable its PI controller; `K` disables that
+//!   wheel's PI and sets its PWM directly; `L` sets the solenoid.
+//! - Watchdog: if no `G` or `K` arrived for more than [`McuConfig::watchdog_timeout_us`],
+//!   the next tick stops every motor at once (PWM 0, controllers disabled) and releases the
+//!   solenoid. Unlike the original, **telemetry keeps flowing** while timed out, so a host
+//!   that only speaks after hearing `g` can never deadlock (§10.1). The Mega boots timed out:
+//!   motors stay off until the host speaks. A new `G` or `K` resumes control.
+//! - Speeds are computed with the *measured* period, which is also reported on `k` (§10.4).
+//! - The PI's anti-windup limit is the battery voltage, the real actuator limit (§10.5).
+//! - Telemetry batch, every tick: `g h i j k s q x`, then the checksum frame `z` when
+//!   checksums are on.
+
+use crate::channels::{FRAME_LEN, Frame};
+use crate::integrity::{
+    BatchReceiver, BatchWriter, HOST_CHECKSUM_CHANNEL, LinkStats, MCU_CHECKSUM_CHANNEL,
+};
+use crate::messages::{Command, Faults, QuadratureErrors, Telemetry, WHEEL_COUNT, Wheel};
+use crate::pi::{PiConfig, PiController};
+use core::f32::consts::TAU;
+
+/// Frames in one telemetry batch, checksum excluded: `g h i j k s q x`.
+pub const TELEMETRY_FRAMES: usize = 8;
+/// Largest telemetry batch on the wire, bytes (with its checksum frame).
+pub const TELEMETRY_BATCH_MAX_LEN: usize = (TELEMETRY_FRAMES + 1) * FRAME_LEN;
+/// Largest host batch the Mega buffers, frames (the host sends `G H I J L`).
+pub const RX_BATCH_CAPACITY: usize = 8;
+
+/// The Mega's configuration. Defaults are the competition robot's; each says its source.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct McuConfig {
+    /// Control period, µs. 20 000 (50 Hz): the original firmware's `robotconfig.h`
+    /// (original-system.md §2.2). The firmware's timer makes this a board constant.
+    pub control_period_us: u32,
+    /// Watchdog timeout after the last `G` or `K`, µs. 100 000: original §2.2.
+    pub watchdog_timeout_us: u32,
+    /// Encoder ticks per wheel revolution. 2803.2 = 16 counts × 4 (quadrature) × 43.8
+    /// (gearbox), original §2.2 (the paper's 2796.8 uses 43.7).
+    pub ticks_per_wheel_rev: f32,
+    /// Voltage that PWM `pwm_max` delivers, V: the battery voltage. 11.1 V, the 3S LiPo's
+    /// nominal voltage, original §2.2. Also the PI's anti-windup and saturation limit.
+    pub battery_voltage_v: f32,
+    /// Largest PWM magnitude. 255: the Adafruit Motor Shield V2 library's 8-bit speed.
+    pub pwm_max: i16,
+    /// Largest PWM change per tick (slew limit). 100: original §2.2. Not applied to a
+    /// watchdog stop, which is immediate.
+    pub pwm_slew_per_tick: i16,
+    /// Wheel speed controller, the same for all four wheels.
+    pub pi: PiConfig,
+    /// Close each telemetry batch with a checksum frame ([`crate::integrity`]). On by
+    /// default; off makes the Mega speak exactly the original protocol.
+    pub send_checksums: bool,
+}
+
+impl Default for McuConfig {
+    fn default() -> Self {
+        Self {
+            control_period_us: 20_000,
+            watchdog_timeout_us: 100_000,
+            ticks_per_wheel_rev: 2803.2,
+            battery_voltage_v: 11.1,
+            pwm_max: 255,
+            pwm_slew_per_tick: 100,
+            pi: PiConfig::default(),
+            send_checksums: true,
+        }
+    }
+}
+
+/// What the firmware samples for one control tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TickInputs {
+    /// Encoder counts since the previous tick, per wheel (motor index order).
+    pub encoder_deltas: [i16; WHEEL_COUNT],
+    /// The box switch is pressed (pin 53 reads 0).
+    pub switch_pressed: bool,
+    /// Invalid quadrature transitions since boot, per wheel, wrapping (from the encoder ISR).
+    pub quadrature_errors: [u8; WHEEL_COUNT],
+    /// Failed I2C transfers to the motor shield since boot, wrapping.
+    pub i2c_faults: u16,
+}
+
+/// What the firmware applies after a control tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Actuation {
+    /// Signed PWM per motor, within ±`pwm_max`; negative = backward.
+    pub pwm: [i16; WHEEL_COUNT],
+    /// Electromagnet level.
+    pub solenoid_on: bool,
+}
+
+/// Bytes to transmit, at most [`TELEMETRY_BATCH_MAX_LEN`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TxBatch {
+    bytes: [u8; TELEMETRY_BATCH_MAX_LEN],
+    len: usize,
+}
+
+impl TxBatch {
+    /// The bytes to send, in order.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes[..self.len]
+    }
+
+    fn write(writer: &mut BatchWriter, frames: &[Frame]) -> Self {
+        let mut batch = Self {
+            bytes: [0; TELEMETRY_BATCH_MAX_LEN],
+            len: 0,
+        };
+        // Every batch the Mega writes has at most TELEMETRY_FRAMES frames, which fit.
+        batch.len = writer.write_batch(frames, &mut batch.bytes).unwrap_or(0);
+        batch
+    }
+}
+
+/// The result of a control tick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TickOutput {
+    /// Motor PWMs and solenoid level to apply now.
+    pub actuation: Actuation,
+    /// The telemetry batch to send now.
+    pub telemetry: TxBatch,
+}
+
+/// How a wheel is driven.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Drive {
+    /// Stopped: PWM 0 (at boot and after a watchdog stop).
+    Off,
+    /// PI speed control towards a reference, wheel rad/s.
+    Speed(f32),
+    /// Open-loop PWM (from `K`).
+    Pwm(i16),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct WheelState {
+    drive: Drive,
+    controller: PiController,
+    pwm: i16,
+    total_ticks: i32,
+}
+
+/// The Mega's behaviour: see the module documentation.
+#[derive(Clone, Debug)]
+pub struct Mcu {
+    config: McuConfig,
+    receiver: BatchReceiver<RX_BATCH_CAPACITY>,
+    writer: BatchWriter,
+    wheels: [WheelState; WHEEL_COUNT],
+    solenoid_requested: bool,
+    last_feed_us: Option<u32>,
+    timed_out: bool,
+    last_tick_us: Option<u32>,
+    bad_messages: u8,
+}
+
+impl Mcu {
+    /// The state at power-up: motors off, timed out until the host speaks.
+    pub fn new(config: McuConfig) -> Self {
+        let wheel = WheelState {
+            drive: Drive::Off,
+            controller: PiController::new(config.pi),
+            pwm: 0,
+            total_ticks: 0,
+        };
+        Self {
+            config,
+            receiver: BatchReceiver::new(HOST_CHECKSUM_CHANNEL),
+            writer: BatchWriter::new(MCU_CHECKSUM_CHANNEL, config.send_checksums),
+            wheels: [wheel; WHEEL_COUNT],
+            solenoid_requested: false,
+            last_feed_us: None,
+            timed_out: true,
+            last_tick_us: None,
+            bad_messages: 0,
+        }
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &McuConfig {
+        &self.config
+    }
+
+    /// The boot batch: the reset frame `r00000000` (with its checksum frame).
+    pub fn boot(&mut self) -> TxBatch {
+        TxBatch::write(&mut self.writer, &[Telemetry::Reset.to_frame()])
+    }
+
+    /// Consume received bytes (any chunking) at time `now_us`.
+    pub fn receive(&mut self, bytes: &[u8], now_us: u32) {
+        let mut commands: [Option<Frame>; RX_BATCH_CAPACITY] = [None; RX_BATCH_CAPACITY];
+        // Frames arrive through a callback; collect them per 9-byte chunk and apply them in
+        // order once the receiver's borrow ends. A 9-byte chunk can complete at most one
+        // checksum frame (releasing at most RX_BATCH_CAPACITY frames), or in compatible mode
+        // at most five short frames, so nothing is dropped here.
+        for chunk in bytes.chunks(FRAME_LEN) {
+            let mut n = 0;
+            self.receiver.feed(chunk, |frame| {
+                if n < commands.len() {
+                    commands[n] = Some(frame);
+                    n += 1;
+                }
+            });
+            for frame in commands[..n].iter().flatten() {
+                self.apply(*frame, now_us);
+            }
+        }
+    }
+
+    fn apply(&mut self, frame: Frame, now_us: u32) {
+        match Command::from_frame(frame) {
+            Ok(Command::WheelSpeed { wheel, speed_rad_s }) => {
+                let state = &mut self.wheels[wheel.index()];
+                if !matches!(state.drive, Drive::Speed(_)) {
+                    state.controller.reset();
+                }
+                state.drive = Drive::Speed(speed_rad_s);
+                // As in the original, G (wheel 0) feeds the watchdog: the host sends G..J
+                // together, G first.
+                if wheel == Wheel::BackRight {
+                    self.feed_watchdog(now_us);
+                }
+            }
+            Ok(Command::MotorPwm { wheel, pwm }) => {
+                let state = &mut self.wheels[wheel.index()];
+                state.controller.reset();
+                state.drive = Drive::Pwm(pwm.clamp(-self.config.pwm_max, self.config.pwm_max));
+                self.feed_watchdog(now_us);
+            }
+            Ok(Command::Solenoid { on }) => self.solenoid_requested = on,
+            Err(_) => self.bad_messages = self.bad_messages.wrapping_add(1),
+        }
+    }
+
+    fn feed_watchdog(&mut self, now_us: u32) {
+        self.last_feed_us = Some(now_us);
+        self.timed_out = false;
+    }
+
+    /// The solenoid level to apply now: as last commanded by `L`, and released while the
+    /// watchdog has the motors stopped.
+    pub fn solenoid_on(&self) -> bool {
+        self.solenoid_requested && !self.timed_out
+    }
+
+    /// True while the watchdog has the motors stopped (also at boot, before the host speaks).
+    pub fn timed_out(&self) -> bool {
+        self.timed_out
+    }
+
+    /// Receive-side link counters.
+    pub fn link_stats(&self) -> LinkStats {
+        self.receiver.stats()
+    }
+
+    /// One control tick at `now_us`: watchdog, speed control, and the telemetry batch.
+    pub fn control_tick(&mut self, now_us: u32, inputs: &TickInputs) -> TickOutput {
+        let period_us = match self.last_tick_us {
+            Some(last) if now_us != last => now_us.wrapping_sub(last),
+            _ => self.config.control_period_us,
+        };
+        self.last_tick_us = Some(now_us);
+        let dt_s = period_us as f32 * 1.0e-6;
+
+        let expired = match self.last_feed_us {
+            None => true,
+            Some(fed) => now_us.wrapping_sub(fed) > self.config.watchdog_timeout_us,
+        };
+        if expired && !self.timed_out {
+            self.solenoid_requested = false;
+        }
+        if expired {
+            self.timed_out = true;
+            for wheel in &mut self.wheels {
+                wheel.drive = Drive::Off;
+                wheel.controller.reset();
+            }
+        }
+
+        let rad_per_tick = TAU / self.config.ticks_per_wheel_rev;
+        let volts_to_pwm = f32::from(self.config.pwm_max) / self.config.battery_voltage_v;
+        let mut actuation = Actuation {
+            pwm: [0; WHEEL_COUNT],
+            solenoid_on: self.solenoid_on(),
+        };
+        for (k, wheel) in self.wheels.iter_mut().enumerate() {
+            let delta = inputs.encoder_deltas[k];
+            wheel.total_ticks = wheel.total_ticks.wrapping_add(i32::from(delta));
+            let measured_rad_s = f32::from(delta) * rad_per_tick / dt_s;
+            let target = match wheel.drive {
+                Drive::Off => None,
+                Drive::Pwm(pwm) => Some(pwm),
+                Drive::Speed(reference) => {
+                    let volts = wheel.controller.step(
+                        reference,
+                        measured_rad_s,
+                        dt_s,
+                        self.config.battery_voltage_v,
+                    );
+                    Some(round_to_pwm(volts * volts_to_pwm, self.config.pwm_max))
+                }
+            };
+            wheel.pwm = match target {
+                None => 0,
+                Some(target) => {
+                    let slew = self.config.pwm_slew_per_tick;
+                    let step = target.saturating_sub(wheel.pwm).clamp(-slew, slew);
+                    wheel.pwm.saturating_add(step)
+                }
+            };
+            actuation.pwm[k] = wheel.pwm;
+        }
+
+        let stats = self.receiver.stats();
+        let faults = Faults {
+            i2c: inputs.i2c_faults,
+            rx_batches_discarded: stats.batches_discarded() as u8,
+            rx_bad_messages: self.bad_messages,
+        };
+        let mut frames = [Telemetry::Reset.to_frame(); TELEMETRY_FRAMES];
+        for (k, wheel) in self.wheels.iter().enumerate() {
+            frames[k] = Telemetry::Ticks {
+                wheel: Wheel::ALL[k],
+                total: wheel.total_ticks,
+            }
+            .to_frame();
+        }
+        frames[4] = Telemetry::LoopPeriod { period_us }.to_frame();
+        frames[5] = Telemetry::Switch {
+            pressed: inputs.switch_pressed,
+        }
+        .to_frame();
+        frames[6] =
+            Telemetry::QuadratureErrors(QuadratureErrors(inputs.quadrature_errors)).to_frame();
+        frames[7] = Telemetry::Faults(faults).to_frame();
+
+        TickOutput {
+            actuation,
+            telemetry: TxBatch::write(&mut self.writer, &frames),
+        }
+    }
+}
+
+/// `value` rounded half away from zero and clamped to ±`max` (`f32::round` is not in
+/// `core`).
+fn round_to_pwm(value: f32, max: i16) -> i16 {
+    let max_f = f32::from(max);
+    let clamped = value.clamp(-max_f, max_f);
+    let rounded = if clamped >= 0.0 {
+        clamped + 0.5
+    } else {
+        clamped - 0.5
+    };
+    rounded as i16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::channels::Decoder;
+    use crate::integrity::BatchWriter;
+    use std::vec::Vec;
+
+    const PERIOD: u32 = 20_000;
+
+    fn host() -> BatchWriter {
+        BatchWriter::new(HOST_CHECKSUM_CHANNEL, true)
+    }
+
+    fn send(mcu: &mut Mcu, writer: &mut BatchWriter, commands: &[Command], now_us: u32) {
+        let frames: Vec<Frame> = commands.iter().map(Command::to_frame).collect();
+        let mut buf = [0u8; 128];
+        let n = writer.write_batch(&frames, &mut buf).unwrap();
+        mcu.receive(&buf[..n], now_us);
+    }
+
+    fn speeds(speed_rad_s: f32) -> Vec<Command> {
+        Wheel::ALL
+            .iter()
+            .map(|&wheel| Command::WheelSpeed { wheel, speed_rad_s })
+            .collect()
+    }
+
+    fn decode(bytes: &[u8]) -> Vec<Frame> {
+        let mut frames = Vec::new();
+        Decoder::new().feed(bytes, |f| frames.push(f));
+        frames
+    }
+
+    #[test]
+    fn boot_sends_the_reset_frame() {
+        let mut mcu = Mcu::new(McuConfig {
+            send_checksums: false,
+            ..McuConfig::default()
+        });
+        assert_eq!(mcu.boot().as_bytes(), b"r00000000");
+        let mut mcu = Mcu::new(McuConfig::default());
+        let boot = mcu.boot();
+        assert_eq!(&boot.as_bytes()[..9], b"r00000000");
+        assert_eq!(boot.as_bytes()[9], b'z');
+    }
+
+    #[test]
+    fn telemetry_batch_contents_and_order() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        mcu.boot();
+        let inputs = TickInputs {
+            encoder_deltas: [5, -3, 0, 1200],
+            switch_pressed: true,
+            quadrature_errors: [1, 0, 0, 2],
+            i2c_faults: 3,
+        };
+        mcu.control_tick(0, &inputs);
+        let out = mcu.control_tick(20_016, &inputs);
+        let frames = decode(out.telemetry.as_bytes());
+        let letters: Vec<u8> = frames.iter().map(|f| f.channel()).collect();
+        assert_eq!(letters, b"ghijksqxz");
+        let messages: Vec<Telemetry> = frames[..8]
+            .iter()
+            .map(|f| Telemetry::from_frame(*f).unwrap())
+            .collect();
+        assert_eq!(
+            messages[..6],
+            [
+                Telemetry::Ticks {
+                    wheel: Wheel::BackRight,
+                    total: 10
+                },
+                Telemetry::Ticks {
+                    wheel: Wheel::BackLeft,
+                    total: -6
+                },
+                Telemetry::Ticks {
+                    wheel: Wheel::FrontRight,
+                    total: 0
+                },
+                Telemetry::Ticks {
+                    wheel: Wheel::FrontLeft,
+                    total: 2400
+                },
+                Telemetry::LoopPeriod { period_us: 20_016 },
+                Telemetry::Switch { pressed: true },
+            ]
+        );
+        assert_eq!(
+            messages[6],
+            Telemetry::QuadratureErrors(QuadratureErrors([1, 0, 0, 2]))
+        );
+        assert_eq!(
+            messages[7],
+            Telemetry::Faults(Faults {
+                i2c: 3,
+                rx_batches_discarded: 0,
+                rx_bad_messages: 0
+            })
+        );
+    }
+
+    #[test]
+    fn motors_stay_off_until_the_host_speaks() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        assert!(mcu.timed_out());
+        let out = mcu.control_tick(0, &TickInputs::default());
+        assert_eq!(out.actuation.pwm, [0; 4]);
+        assert!(!out.telemetry.as_bytes().is_empty());
+    }
+
+    #[test]
+    fn watchdog_stops_motors_after_100_ms_and_telemetry_keeps_flowing() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &speeds(10.0), 0);
+        send(&mut mcu, &mut host, &[Command::Solenoid { on: true }], 0);
+        assert!(mcu.solenoid_on());
+        let mut t = 0;
+        let mut stopped_at = None;
+        while t <= 200_000 {
+            let out = mcu.control_tick(t, &TickInputs::default());
+            assert!(
+                !out.telemetry.as_bytes().is_empty(),
+                "telemetry stopped at {t}"
+            );
+            if stopped_at.is_none() && out.actuation.pwm == [0; 4] && t > 0 {
+                stopped_at = Some(t);
+                assert!(!out.actuation.solenoid_on);
+            }
+            if t <= 100_000 {
+                assert!(
+                    out.actuation.pwm.iter().all(|&p| p > 0),
+                    "stopped early at {t}"
+                );
+            }
+            t += PERIOD;
+        }
+        // Last G at 0: the first tick more than 100 ms later is at 120 ms.
+        assert_eq!(stopped_at, Some(120_000));
+        assert!(mcu.timed_out());
+        // A new G resumes control.
+        send(&mut mcu, &mut host, &speeds(10.0), t);
+        let out = mcu.control_tick(t, &TickInputs::default());
+        assert!(out.actuation.pwm.iter().all(|&p| p > 0));
+        // The solenoid was released by the trip and needs a new L.
+        assert!(!mcu.solenoid_on());
+    }
+
+    #[test]
+    fn only_g_and_k_feed_the_watchdog() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &speeds(5.0), 0);
+        let mut t = 0;
+        while t <= 200_000 {
+            // H, I, J and L keep arriving, but not G.
+            send(&mut mcu, &mut host, &speeds(5.0)[1..], t);
+            send(&mut mcu, &mut host, &[Command::Solenoid { on: true }], t);
+            mcu.control_tick(t, &TickInputs::default());
+            t += PERIOD;
+        }
+        assert!(mcu.timed_out());
+        send(
+            &mut mcu,
+            &mut host,
+            &[Command::MotorPwm {
+                wheel: Wheel::FrontLeft,
+                pwm: 50,
+            }],
+            t,
+        );
+        assert!(!mcu.timed_out());
+    }
+
+    #[test]
+    fn k_overrides_one_wheel_with_slew_limit() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &speeds(0.0), 0);
+        send(
+            &mut mcu,
+            &mut host,
+            &[Command::MotorPwm {
+                wheel: Wheel::FrontRight,
+                pwm: -250,
+            }],
+            0,
+        );
+        let pwm: Vec<i16> = (0..4)
+            .map(|i| {
+                mcu.control_tick(i * PERIOD, &TickInputs::default())
+                    .actuation
+                    .pwm[2]
+            })
+            .collect();
+        assert_eq!(pwm, [-100, -200, -250, -250]);
+        // Out-of-range PWM is clamped to the shield's 255.
+        send(
+            &mut mcu,
+            &mut host,
+            &[Command::MotorPwm {
+                wheel: Wheel::BackLeft,
+                pwm: 1000,
+            }],
+            4 * PERIOD,
+        );
+        let mut last = 0;
+        for i in 4..8 {
+            last = mcu
+                .control_tick(i * PERIOD, &TickInputs::default())
+                .actuation
+                .pwm[1];
+        }
+        assert_eq!(last, 255);
+        // A G on that wheel returns it to closed loop.
+        send(&mut mcu, &mut host, &speeds(0.0), 8 * PERIOD);
+        let mut out = mcu.control_tick(8 * PERIOD, &TickInputs::default());
+        for i in 9..12 {
+            out = mcu.control_tick(i * PERIOD, &TickInputs::default());
+        }
+        assert_eq!(out.actuation.pwm, [0; 4]);
+    }
+
+    #[test]
+    fn closed_loop_uses_the_measured_period() {
+        // 10 rad/s over 20 ms is 89.2 ticks at 2803.2 ticks/rev. If the period were 25 ms,
+        // the same ticks would be 8 rad/s and the controller would push harder.
+        let ticks = (10.0f32 * 0.02 * 2803.2 / TAU) as i16;
+        let pwm_after = |period: u32| {
+            let mut mcu = Mcu::new(McuConfig::default());
+            let mut host = host();
+            send(&mut mcu, &mut host, &speeds(10.0), 0);
+            mcu.control_tick(0, &TickInputs::default());
+            let inputs = TickInputs {
+                encoder_deltas: [ticks; 4],
+                ..TickInputs::default()
+            };
+            mcu.control_tick(period, &inputs).actuation.pwm[0]
+        };
+        assert!(pwm_after(25_000) > pwm_after(20_000));
+    }
+
+    #[test]
+    fn corrupted_host_batches_are_not_applied_in_strict_mode() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &speeds(0.0), 0); // switches the Mega to strict mode
+        let frames: Vec<Frame> = [Command::MotorPwm {
+            wheel: Wheel::BackRight,
+            pwm: 80,
+        }]
+        .iter()
+        .map(Command::to_frame)
+        .collect();
+        let mut buf = [0u8; 32];
+        let n = host.write_batch(&frames, &mut buf).unwrap();
+        buf[5] = b'9'; // K0000 0050 -> K0000 9050: a different PWM
+        mcu.receive(&buf[..n], 0);
+        assert_eq!(mcu.link_stats().batches_corrupt, 1);
+        let out = mcu.control_tick(0, &TickInputs::default());
+        assert_eq!(out.actuation.pwm, [0; 4]);
+    }
+
+    #[test]
+    fn an_original_host_without_checksums_is_obeyed() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut bytes = Vec::new();
+        for cmd in speeds(0.0).into_iter().chain([
+            Command::MotorPwm {
+                wheel: Wheel::FrontLeft,
+                pwm: -60,
+            },
+            Command::Solenoid { on: true },
+        ]) {
+            bytes.extend_from_slice(&cmd.to_frame().encode());
+        }
+        mcu.receive(&bytes, 0);
+        assert!(mcu.solenoid_on());
+        let out = mcu.control_tick(0, &TickInputs::default());
+        assert_eq!(out.actuation.pwm, [0, 0, 0, -60]);
+    }
+
+    #[test]
+    fn malformed_commands_are_counted_and_ignored() {
+        let mut mcu = Mcu::new(McuConfig {
+            send_checksums: false,
+            ..McuConfig::default()
+        });
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(&Frame::new(b'G', f32::NAN.to_bits()).unwrap().encode());
+        bytes.extend_from_slice(&Frame::new(b'L', 7).unwrap().encode());
+        mcu.receive(&bytes, 0);
+        assert!(mcu.timed_out());
+        let out = mcu.control_tick(0, &TickInputs::default());
+        let frames = decode(out.telemetry.as_bytes());
+        let faults = Telemetry::from_frame(frames[7]).unwrap();
+        assert_eq!(
+            faults,
+            Telemetry::Faults(Faults {
+                i2c: 0,
+                rx_batches_discarded: 0,
+                rx_bad_messages: 2
+            })
+        );
+    }
+
+    #[test]
+    fn cumulative_ticks_wrap_like_the_original_uint32() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let inputs = TickInputs {
+            encoder_deltas: [i16::MAX; 4],
+            ..TickInputs::default()
+        };
+        let mut t = 0u32;
+        for _ in 0..70_000 {
+            mcu.control_tick(t, &inputs);
+            t = t.wrapping_add(PERIOD);
+        }
+        let out = mcu.control_tick(t, &inputs);
+        let frames = decode(out.telemetry.as_bytes());
+        let expected = (i32::from(i16::MAX)).wrapping_mul(70_001);
+        assert_eq!(
+            Telemetry::from_frame(frames[0]).unwrap(),
+            Telemetry::Ticks {
+                wheel: Wheel::BackRight,
+                total: expected
+            }
+        );
+    }
+}

@@ -1,0 +1,253 @@
+//! The wheel speed controller (paper §V.B; original-system.md §2.2, §2.5).
+//!
+//! Per control period, for reference `w_ref` and measured speed `w` (wheel rad/s):
+//!
+//! 1. `e = w_ref − w`; candidate integral `I* = I + e·dt`; if `w_ref == 0` exactly, `I* = 0`
+//!    (the original clears the integral at a zero reference so a stopped wheel does not hum);
+//! 2. `u = Kc·e + Ki·I* + Kf·w_ref` (PI plus feed-forward), volts;
+//! 3. Hammerstein dead-zone compensation `u' = D(u)` with parameters (V0, Vd): for `u > Vd`,
+//!    `u − Vd + V0`; for `u ≤ −Vd`, `u + Vd − V0`; in between `u·V0/Vd` (0 if `Vd = 0`).
+//!    With `V0 = Vd = 0` it is the identity, as in the shipped original;
+//! 4. anti-windup by conditional integration: if `|u'|` exceeds the actuator limit and `I*`
+//!    would push it further out, keep the old integral and recompute `u'`;
+//! 5. saturate `u'` to ± the limit.
+//!
+//! Fixing original-system.md §10.5, the limit is the actuator's *real* limit, passed in on
+//! every step (the battery voltage, which is what PWM 255 delivers), not a fixed 12 V, and the
+//! anti-windup test is made on the voltage actually sent to the motor (after the dead zone).
+
+/// PI gains and feed-forward. Defaults: the original firmware's IMC tuning of the motor
+/// model K = 4.5 (rad/s)/V, τ = 0.1 s, closed-loop τ_cl = τ (original-system.md §2.2).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PiGains {
+    /// Proportional gain Kc, V per (rad/s). Original: 1/4.5 = 0.2222.
+    pub kc_v_per_rad_s: f32,
+    /// Integral gain Ki = Kc/Ti, V per rad. Original: Ti = 0.1 s, so 2.222.
+    pub ki_v_per_rad: f32,
+    /// Feed-forward Kf, V per (rad/s) of reference. Original: 0.456294584.
+    pub kf_v_per_rad_s: f32,
+}
+
+impl Default for PiGains {
+    fn default() -> Self {
+        Self {
+            kc_v_per_rad_s: 1.0 / 4.5,
+            ki_v_per_rad: (1.0 / 4.5) / 0.1,
+            kf_v_per_rad_s: 0.456_294_58,
+        }
+    }
+}
+
+/// Hammerstein dead-zone compensation parameters, volts.
+///
+/// Default: disabled (`V0 = Vd = 0`), as shipped: the original defines V0 = 0.20 V and
+/// Vd = 0.12 V (`kMotHammV0`, `kMotHammVd`) but never uses them; the feed-forward does the
+/// dead-zone job (original-system.md §2.5).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeadZone {
+    /// V0: the motor's estimated dead zone, V.
+    pub v0_v: f32,
+    /// Vd: the controller output range mapped onto ±V0, V.
+    pub vd_v: f32,
+}
+
+impl DeadZone {
+    /// The original's (unused) constants, for teams that identify their own dead zone.
+    pub const ORIGINAL_UNUSED: DeadZone = DeadZone {
+        v0_v: 0.20,
+        vd_v: 0.12,
+    };
+
+    /// The compensated voltage for controller output `u_v`.
+    pub fn apply(&self, u_v: f32) -> f32 {
+        let (v0, vd) = (self.v0_v, self.vd_v);
+        if u_v > vd {
+            u_v - vd + v0
+        } else if u_v <= -vd {
+            u_v + vd - v0
+        } else if vd == 0.0 {
+            0.0
+        } else {
+            u_v * v0 / vd
+        }
+    }
+}
+
+/// Everything that configures one wheel's controller.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PiConfig {
+    /// Gains.
+    pub gains: PiGains,
+    /// Dead-zone compensation.
+    pub dead_zone: DeadZone,
+}
+
+/// One wheel's PI speed controller state.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PiController {
+    config: PiConfig,
+    integral_rad: f32,
+}
+
+impl PiController {
+    /// A controller with a zero integral.
+    pub const fn new(config: PiConfig) -> Self {
+        Self {
+            config,
+            integral_rad: 0.0,
+        }
+    }
+
+    /// Clear the integral (when the controller is enabled or disabled).
+    pub fn reset(&mut self) {
+        self.integral_rad = 0.0;
+    }
+
+    /// The integral of the error, rad.
+    pub fn integral_rad(&self) -> f32 {
+        self.integral_rad
+    }
+
+    /// One control step: the motor voltage for reference `reference_rad_s` and measurement
+    /// `measured_rad_s` over `dt_s` seconds, within ±`limit_v` (the actuator's real limit).
+    pub fn step(
+        &mut self,
+        reference_rad_s: f32,
+        measured_rad_s: f32,
+        dt_s: f32,
+        limit_v: f32,
+    ) -> f32 {
+        let PiGains {
+            kc_v_per_rad_s: kc,
+            ki_v_per_rad: ki,
+            kf_v_per_rad_s: kf,
+        } = self.config.gains;
+        let error = reference_rad_s - measured_rad_s;
+        let candidate = if reference_rad_s == 0.0 {
+            0.0
+        } else {
+            self.integral_rad + error * dt_s
+        };
+        let output = |integral: f32| {
+            self.config
+                .dead_zone
+                .apply(kc * error + ki * integral + kf * reference_rad_s)
+        };
+        let mut u = output(candidate);
+        let winding_up = (u > limit_v && candidate > 0.0) || (u < -limit_v && candidate < 0.0);
+        if winding_up {
+            u = output(self.integral_rad);
+        } else {
+            self.integral_rad = candidate;
+        }
+        u.clamp(-limit_v, limit_v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// First-order motor: dw/dt = (K·u − w)/τ, with the original's model K = 4.5 (rad/s)/V,
+    /// τ = 0.1 s, integrated finely inside each control period.
+    struct Motor {
+        w: f32,
+        gain: f32,
+        tau_s: f32,
+    }
+
+    impl Motor {
+        fn new() -> Self {
+            Self {
+                w: 0.0,
+                gain: 4.5,
+                tau_s: 0.1,
+            }
+        }
+        fn run(&mut self, u: f32, dt_s: f32) {
+            let steps = 100;
+            let h = dt_s / steps as f32;
+            for _ in 0..steps {
+                self.w += h * (self.gain * u - self.w) / self.tau_s;
+            }
+        }
+    }
+
+    const DT: f32 = 0.02;
+    const BATTERY: f32 = 11.1;
+
+    #[test]
+    fn step_response_settles_on_the_reference() {
+        let mut pi = PiController::new(PiConfig::default());
+        let mut motor = Motor::new();
+        for _ in 0..50 {
+            let u = pi.step(10.0, motor.w, DT, BATTERY);
+            motor.run(u, DT);
+        }
+        assert!((motor.w - 10.0).abs() < 0.05, "w = {}", motor.w);
+    }
+
+    #[test]
+    fn anti_windup_recovers_within_one_period_after_saturation_ends() {
+        let mut pi = PiController::new(PiConfig::default());
+        // Hold the wheel (stalled) with a reference the battery cannot reach: the integral
+        // grows for a few periods until the output saturates, then stops.
+        for _ in 0..100 {
+            let u = pi.step(15.0, 0.0, DT, BATTERY);
+            assert!(u <= BATTERY);
+        }
+        let held = pi.integral_rad();
+        assert!(held > 0.0, "the integral never integrated");
+        // 15 rad/s of error for 2 s would integrate 30 rad without anti-windup.
+        assert!(held < 1.0, "integral {held} wound up");
+        // Saturation ends: the reference drops to a reachable value and the wheel runs near
+        // it. Within one period the output is back inside the limits.
+        let u = pi.step(5.0, 5.0, DT, BATTERY);
+        assert!(u.abs() < BATTERY, "still saturated: {u}");
+    }
+
+    #[test]
+    fn without_anti_windup_the_integral_would_grow() {
+        // Sanity check of the test above: the same stall with a huge limit integrates freely.
+        let mut pi = PiController::new(PiConfig::default());
+        for _ in 0..100 {
+            pi.step(15.0, 0.0, DT, 1.0e9);
+        }
+        assert!(pi.integral_rad() > 29.0);
+    }
+
+    #[test]
+    fn the_limit_is_the_one_passed_in() {
+        let mut pi = PiController::new(PiConfig::default());
+        assert_eq!(pi.step(100.0, 0.0, DT, 7.4), 7.4);
+        assert_eq!(pi.step(-100.0, 0.0, DT, 7.4), -7.4);
+    }
+
+    #[test]
+    fn dead_zone_with_zero_parameters_is_the_identity() {
+        let dz = DeadZone::default();
+        for u in [-12.0, -1.0, -0.1, -0.0, 0.0, 0.05, 0.12, 3.3, 12.0] {
+            assert_eq!(dz.apply(u), u);
+        }
+    }
+
+    #[test]
+    fn dead_zone_shifts_outside_and_scales_inside() {
+        let dz = DeadZone::ORIGINAL_UNUSED;
+        assert!((dz.apply(1.0) - 1.08).abs() < 1e-6);
+        assert!((dz.apply(-1.0) + 1.08).abs() < 1e-6);
+        assert!((dz.apply(0.06) - 0.10).abs() < 1e-6);
+        // Continuous at the edges.
+        assert!((dz.apply(0.12) - 0.20).abs() < 1e-6);
+        assert!((dz.apply(-0.12) + 0.20).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_zero_reference_clears_the_integral() {
+        let mut pi = PiController::new(PiConfig::default());
+        pi.step(5.0, 0.0, DT, BATTERY);
+        assert!(pi.integral_rad() > 0.0);
+        assert_eq!(pi.step(0.0, 0.0, DT, BATTERY), 0.0);
+        assert_eq!(pi.integral_rad(), 0.0);
+    }
+}
