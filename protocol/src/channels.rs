@@ -92,10 +92,13 @@ impl Frame {
     pub const fn encode(&self) -> [u8; FRAME_LEN] {
         let mut out = [0u8; FRAME_LEN];
         out[0] = self.channel;
+        // Byte by byte rather than nibble by nibble: the AVR has no barrel shifter, so a
+        // variable 32-bit shift costs a loop per nibble.
+        let bytes = self.value.to_be_bytes();
         let mut i = 0;
-        while i < 8 {
-            let nibble = (self.value >> (28 - 4 * i)) & 0xF;
-            out[1 + i] = HEX_DIGITS[nibble as usize];
+        while i < 4 {
+            out[1 + 2 * i] = HEX_DIGITS[(bytes[i] >> 4) as usize];
+            out[2 + 2 * i] = HEX_DIGITS[(bytes[i] & 0xF) as usize];
             i += 1;
         }
         out

@@ -13,7 +13,9 @@
 //!    (the solenoid follows `L` at once, as in the original);
 //! 3. every control period ([`McuConfig::control_period_us`]), call [`Mcu::control_tick`]
 //!    with the encoder deltas since the previous tick and the switch level, write the
-//!    returned PWMs to the motors and send the returned telemetry batch.
+//!    returned PWMs to the motors and send the returned telemetry batch. (The firmware calls
+//!    its two halves, [`Mcu::begin_tick`] and [`Mcu::finish_tick`], so the telemetry leaves
+//!    before the controllers run.)
 //!
 //! Behaviour:
 //!
@@ -95,7 +97,10 @@ pub struct TickInputs {
     /// Invalid quadrature transitions since boot, per wheel, wrapping (from the encoder ISR).
     pub quadrature_errors: [u8; WHEEL_COUNT],
     /// Failed I2C transfers to the motor shield since boot, wrapping.
-    pub i2c_faults: u16,
+    pub i2c_faults: u8,
+    /// Serial bytes lost since boot (receive buffer overruns plus telemetry bytes that did
+    /// not fit the transmit buffer), wrapping.
+    pub serial_bytes_dropped: u8,
 }
 
 /// What the firmware applies after a control tick.
@@ -151,6 +156,13 @@ enum Drive {
     Pwm(i16),
 }
 
+/// What [`Mcu::begin_tick`] measured, for [`Mcu::finish_tick`].
+#[derive(Clone, Copy, Debug)]
+struct PendingTick {
+    dt_s: f32,
+    measured_rad_s: [f32; WHEEL_COUNT],
+}
+
 #[derive(Clone, Copy, Debug)]
 struct WheelState {
     drive: Drive,
@@ -170,6 +182,7 @@ pub struct Mcu {
     last_feed_us: Option<u32>,
     timed_out: bool,
     last_tick_us: Option<u32>,
+    pending: Option<PendingTick>,
     bad_messages: u8,
 }
 
@@ -191,6 +204,7 @@ impl Mcu {
             last_feed_us: None,
             timed_out: true,
             last_tick_us: None,
+            pending: None,
             bad_messages: 0,
         }
     }
@@ -272,69 +286,44 @@ impl Mcu {
         self.receiver.stats()
     }
 
-    /// One control tick at `now_us`: watchdog, speed control, and the telemetry batch.
+    /// One control tick at `now_us`: [`Mcu::begin_tick`] then [`Mcu::finish_tick`].
     pub fn control_tick(&mut self, now_us: u32, inputs: &TickInputs) -> TickOutput {
+        let telemetry = self.begin_tick(now_us, inputs);
+        let actuation = self.finish_tick(now_us);
+        TickOutput {
+            actuation,
+            telemetry,
+        }
+    }
+
+    /// First half of a control tick: account for the inputs and return the telemetry batch,
+    /// so the caller can start sending it before the controllers run. The telemetry does not
+    /// depend on the control computation, so the time from the tick to its first byte is the
+    /// same whatever the motors are doing.
+    pub fn begin_tick(&mut self, now_us: u32, inputs: &TickInputs) -> TxBatch {
         let period_us = match self.last_tick_us {
             Some(last) if now_us != last => now_us.wrapping_sub(last),
             _ => self.config.control_period_us,
         };
         self.last_tick_us = Some(now_us);
         let dt_s = period_us as f32 * 1.0e-6;
-
-        let expired = match self.last_feed_us {
-            None => true,
-            Some(fed) => now_us.wrapping_sub(fed) > self.config.watchdog_timeout_us,
-        };
-        if expired && !self.timed_out {
-            self.solenoid_requested = false;
-        }
-        if expired {
-            self.timed_out = true;
-            for wheel in &mut self.wheels {
-                wheel.drive = Drive::Off;
-                wheel.controller.reset();
-            }
-        }
-
         let rad_per_tick = TAU / self.config.ticks_per_wheel_rev;
-        let volts_to_pwm = f32::from(self.config.pwm_max) / self.config.battery_voltage_v;
-        let mut actuation = Actuation {
-            pwm: [0; WHEEL_COUNT],
-            solenoid_on: self.solenoid_on(),
-        };
+        let mut measured_rad_s = [0.0; WHEEL_COUNT];
         for (k, wheel) in self.wheels.iter_mut().enumerate() {
             let delta = inputs.encoder_deltas[k];
             wheel.total_ticks = wheel.total_ticks.wrapping_add(i32::from(delta));
-            let measured_rad_s = f32::from(delta) * rad_per_tick / dt_s;
-            let target = match wheel.drive {
-                Drive::Off => None,
-                Drive::Pwm(pwm) => Some(pwm),
-                Drive::Speed(reference) => {
-                    let volts = wheel.controller.step(
-                        reference,
-                        measured_rad_s,
-                        dt_s,
-                        self.config.battery_voltage_v,
-                    );
-                    Some(round_to_pwm(volts * volts_to_pwm, self.config.pwm_max))
-                }
-            };
-            wheel.pwm = match target {
-                None => 0,
-                Some(target) => {
-                    let slew = self.config.pwm_slew_per_tick;
-                    let step = target.saturating_sub(wheel.pwm).clamp(-slew, slew);
-                    wheel.pwm.saturating_add(step)
-                }
-            };
-            actuation.pwm[k] = wheel.pwm;
+            measured_rad_s[k] = f32::from(delta) * rad_per_tick / dt_s;
         }
+        self.pending = Some(PendingTick {
+            dt_s,
+            measured_rad_s,
+        });
 
-        let stats = self.receiver.stats();
         let faults = Faults {
             i2c: inputs.i2c_faults,
-            rx_batches_discarded: stats.batches_discarded() as u8,
+            rx_batches_discarded: self.receiver.stats().batches_discarded() as u8,
             rx_bad_messages: self.bad_messages,
+            serial_bytes_dropped: inputs.serial_bytes_dropped,
         };
         let mut frames = [Telemetry::Reset.to_frame(); TELEMETRY_FRAMES];
         for (k, wheel) in self.wheels.iter().enumerate() {
@@ -352,11 +341,65 @@ impl Mcu {
         frames[6] =
             Telemetry::QuadratureErrors(QuadratureErrors(inputs.quadrature_errors)).to_frame();
         frames[7] = Telemetry::Faults(faults).to_frame();
+        TxBatch::write(&mut self.writer, &frames)
+    }
 
-        TickOutput {
-            actuation,
-            telemetry: TxBatch::write(&mut self.writer, &frames),
+    /// Second half of a control tick at `now_us`: the watchdog and the speed controllers,
+    /// using what [`Mcu::begin_tick`] measured (a wheel standing still over the nominal period
+    /// if it was not called). Returns the PWMs and solenoid level to apply now.
+    pub fn finish_tick(&mut self, now_us: u32) -> Actuation {
+        let PendingTick {
+            dt_s,
+            measured_rad_s,
+        } = self.pending.take().unwrap_or(PendingTick {
+            dt_s: self.config.control_period_us as f32 * 1.0e-6,
+            measured_rad_s: [0.0; WHEEL_COUNT],
+        });
+        let expired = match self.last_feed_us {
+            None => true,
+            Some(fed) => now_us.wrapping_sub(fed) > self.config.watchdog_timeout_us,
+        };
+        if expired && !self.timed_out {
+            self.solenoid_requested = false;
         }
+        if expired {
+            self.timed_out = true;
+            for wheel in &mut self.wheels {
+                wheel.drive = Drive::Off;
+                wheel.controller.reset();
+            }
+        }
+
+        let volts_to_pwm = f32::from(self.config.pwm_max) / self.config.battery_voltage_v;
+        let mut actuation = Actuation {
+            pwm: [0; WHEEL_COUNT],
+            solenoid_on: self.solenoid_on(),
+        };
+        for (k, wheel) in self.wheels.iter_mut().enumerate() {
+            let target = match wheel.drive {
+                Drive::Off => None,
+                Drive::Pwm(pwm) => Some(pwm),
+                Drive::Speed(reference) => {
+                    let volts = wheel.controller.step(
+                        reference,
+                        measured_rad_s[k],
+                        dt_s,
+                        self.config.battery_voltage_v,
+                    );
+                    Some(round_to_pwm(volts * volts_to_pwm, self.config.pwm_max))
+                }
+            };
+            wheel.pwm = match target {
+                None => 0,
+                Some(target) => {
+                    let slew = self.config.pwm_slew_per_tick;
+                    let step = target.saturating_sub(wheel.pwm).clamp(-slew, slew);
+                    wheel.pwm.saturating_add(step)
+                }
+            };
+            actuation.pwm[k] = wheel.pwm;
+        }
+        actuation
     }
 }
 
@@ -428,6 +471,7 @@ mod tests {
             switch_pressed: true,
             quadrature_errors: [1, 0, 0, 2],
             i2c_faults: 3,
+            serial_bytes_dropped: 9,
         };
         mcu.control_tick(0, &inputs);
         let out = mcu.control_tick(20_016, &inputs);
@@ -470,9 +514,39 @@ mod tests {
             Telemetry::Faults(Faults {
                 i2c: 3,
                 rx_batches_discarded: 0,
-                rx_bad_messages: 0
+                rx_bad_messages: 0,
+                serial_bytes_dropped: 9,
             })
         );
+    }
+
+    #[test]
+    fn the_two_halves_of_a_tick_equal_a_whole_tick() {
+        let script = |mcu: &mut Mcu, split: bool| {
+            let mut host = host();
+            let mut outputs = Vec::new();
+            for i in 0..10u32 {
+                send(mcu, &mut host, &speeds(3.0 + i as f32), i * PERIOD);
+                let inputs = TickInputs {
+                    encoder_deltas: [i as i16 * 7; 4],
+                    ..TickInputs::default()
+                };
+                let out = if split {
+                    let telemetry = mcu.begin_tick(i * PERIOD, &inputs);
+                    TickOutput {
+                        actuation: mcu.finish_tick(i * PERIOD),
+                        telemetry,
+                    }
+                } else {
+                    mcu.control_tick(i * PERIOD, &inputs)
+                };
+                outputs.push(out);
+            }
+            outputs
+        };
+        let whole = script(&mut Mcu::new(McuConfig::default()), false);
+        let halves = script(&mut Mcu::new(McuConfig::default()), true);
+        assert_eq!(whole, halves);
     }
 
     #[test]
@@ -673,9 +747,8 @@ mod tests {
         assert_eq!(
             faults,
             Telemetry::Faults(Faults {
-                i2c: 0,
-                rx_batches_discarded: 0,
-                rx_bad_messages: 2
+                rx_bad_messages: 2,
+                ..Faults::default()
             })
         );
     }

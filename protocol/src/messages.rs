@@ -210,15 +210,48 @@ impl Command {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct QuadratureErrors(pub [u8; WHEEL_COUNT]);
 
-/// Fault counters the Mega reports on channel `x`, each wrapping.
+/// Fault counters the Mega reports on channel `x`: four wrapping 8-bit counters, one byte
+/// each (a host reading them every 20 ms sees every increment as long as fewer than 256 faults
+/// of a kind happen between two batches).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Faults {
-    /// I2C transfers to the motor shield that failed (NACK, bus error, timeout). Bits 0–15.
-    pub i2c: u16,
-    /// Received batches discarded by the integrity check (CRC, count or sequence). Bits 16–23.
+    /// I2C transfers to the motor shield that failed (NACK, bus error, timeout). Byte 0.
+    pub i2c: u8,
+    /// Received batches discarded by the integrity check (CRC, count or sequence). Byte 1.
     pub rx_batches_discarded: u8,
-    /// Received frames rejected as malformed messages. Bits 24–31.
+    /// Received frames rejected as malformed messages. Byte 2.
     pub rx_bad_messages: u8,
+    /// Serial bytes lost by the Mega: received bytes that found its receive buffer full, and
+    /// telemetry bytes that found its transmit buffer full. Byte 3.
+    pub serial_bytes_dropped: u8,
+}
+
+impl Faults {
+    /// The counters as the `x` value: byte 0 (least significant) is `i2c`.
+    pub const fn to_value(self) -> u32 {
+        u32::from_le_bytes([
+            self.i2c,
+            self.rx_batches_discarded,
+            self.rx_bad_messages,
+            self.serial_bytes_dropped,
+        ])
+    }
+
+    /// The counters of an `x` value.
+    pub const fn from_value(value: u32) -> Self {
+        let [
+            i2c,
+            rx_batches_discarded,
+            rx_bad_messages,
+            serial_bytes_dropped,
+        ] = value.to_le_bytes();
+        Self {
+            i2c,
+            rx_batches_discarded,
+            rx_bad_messages,
+            serial_bytes_dropped,
+        }
+    }
 }
 
 /// A message from the Mega to the host.
@@ -261,12 +294,7 @@ impl Telemetry {
             Self::QuadratureErrors(QuadratureErrors(counts)) => {
                 (QUADRATURE_ERRORS_CHANNEL, u32::from_le_bytes(counts))
             }
-            Self::Faults(faults) => (
-                FAULTS_CHANNEL,
-                u32::from(faults.i2c)
-                    | (u32::from(faults.rx_batches_discarded) << 16)
-                    | (u32::from(faults.rx_bad_messages) << 24),
-            ),
+            Self::Faults(faults) => (FAULTS_CHANNEL, faults.to_value()),
         };
         match Frame::new(channel, value) {
             Ok(frame) => frame,
@@ -291,11 +319,7 @@ impl Telemetry {
             QUADRATURE_ERRORS_CHANNEL => Ok(Self::QuadratureErrors(QuadratureErrors(
                 value.to_le_bytes(),
             ))),
-            FAULTS_CHANNEL => Ok(Self::Faults(Faults {
-                i2c: value as u16,
-                rx_batches_discarded: (value >> 16) as u8,
-                rx_bad_messages: (value >> 24) as u8,
-            })),
+            FAULTS_CHANNEL => Ok(Self::Faults(Faults::from_value(value))),
             _ => Err(MessageError::UnknownChannel(channel)),
         }
     }
@@ -334,13 +358,7 @@ mod tests {
             any::<bool>().prop_map(|pressed| Telemetry::Switch { pressed }),
             Just(Telemetry::Reset),
             any::<[u8; 4]>().prop_map(|c| Telemetry::QuadratureErrors(QuadratureErrors(c))),
-            (any::<u16>(), any::<u8>(), any::<u8>()).prop_map(|(i2c, d, b)| Telemetry::Faults(
-                Faults {
-                    i2c,
-                    rx_batches_discarded: d,
-                    rx_bad_messages: b
-                }
-            )),
+            any::<u32>().prop_map(|v| Telemetry::Faults(Faults::from_value(v))),
         ]
     }
 
@@ -410,6 +428,13 @@ mod tests {
         assert_eq!(&bytes(Telemetry::Switch { pressed: true }), b"s00000000");
         assert_eq!(&bytes(Telemetry::Switch { pressed: false }), b"s00000001");
         assert_eq!(&bytes(Telemetry::Reset), b"r00000000");
+        let faults = Faults {
+            i2c: 3,
+            rx_batches_discarded: 0x10,
+            rx_bad_messages: 0,
+            serial_bytes_dropped: 0xFF,
+        };
+        assert_eq!(&bytes(Telemetry::Faults(faults)), b"xFF001003");
     }
 
     #[test]
