@@ -1,0 +1,241 @@
+//! The 50 kHz encoder interrupt (Timer1 compare A, `__vector_17`) and the 1 kHz time base
+//! (Timer3 compare A, `__vector_32`).
+//!
+//! # Encoder interrupt
+//!
+//! Every 20 µs it reads `PINA` once (the four encoders on Arduino pins 22–29) and, for each
+//! encoder, adds the table increment of its transition to an 8-bit wrapping position
+//! counter ([`POSITIONS`]) and its skipped transitions to a 4-bit counter packed two per
+//! byte ([`SKIPS`]). The tables (`crate::quadrature_tables`, generated from
+//! `ratf_protocol::quadrature`) are indexed by `previous_nibble << 4 | current_nibble`, one
+//! lookup per encoder pair and value.
+//!
+//! It is written in assembly (a naked function) so that its cost is known exactly and is
+//! the same on every path (no branches): **99 cycles per invocation**, counted from the
+//! listing below, hardware entry and `reti` included:
+//!
+//! | part | cycles |
+//! |---|---|
+//! | hardware entry (3-byte PC) + `jmp` in the vector table | 5 + 3 |
+//! | save r24 and SREG in `GPIOR1`/`GPIOR2` (1 each), push r25, r30, r31 | 3 + 6 |
+//! | read `PINA`, previous sample from `GPIOR0`, store the new one | 3 |
+//! | the two pair indices | 10 |
+//! | 6 × (`ldi`, `lpm`, `lds`, `add`, `sts`) = 6 × 9, plus one `mov` | 55 |
+//! | pop r31, r30, r25, restore SREG and r24 | 6 + 3 |
+//! | `reti` | 5 |
+//!
+//! State kept by the interrupt: the previous sample in `GPIOR0` (1-cycle `in`/`out`), the
+//! 6 counter bytes in SRAM, the 768 B of tables in flash (256-byte aligned, so the index is
+//! the low byte of the `lpm` address). `GPIOR1`/`GPIOR2` are its scratch save slots: no
+//! other code may use the three `GPIOR` registers.
+//!
+//! # Time base
+//!
+//! Timer3 interrupts every millisecond (CTC, clk/8, `OCR3A` = 1999). Its handler advances
+//! the clock and folds the encoder bytes into 16-bit control-window deltas
+//! (`crate::encoder_fold`). The encoder interrupt has the higher priority (lower vector)
+//! and the time-base handler is short, so a sample is at most delayed, never lost.
+
+use crate::board::{ENCODER_TIMER_TOP, TIME_BASE_TIMER_TOP};
+use crate::encoder_fold::{ControlSample, ENCODERS, Fold};
+use crate::quadrature_tables::{PairTable, TABLE_LEN, pair_table};
+use avr_device::atmega2560::{CPU, TC1, TC3};
+use avr_device::interrupt::{self, Mutex};
+use core::cell::{RefCell, UnsafeCell};
+
+/// A table in flash, aligned so that its address's low byte is 0.
+#[repr(C, align(256))]
+pub struct FlashTable([u8; TABLE_LEN]);
+
+/// Bytes written by the encoder interrupt and read with interrupts disabled.
+#[repr(transparent)]
+pub struct IsrBytes<const N: usize>(UnsafeCell<[u8; N]>);
+
+// SAFETY: the bytes are written only by the encoder interrupt, and read only by code that
+// runs with interrupts disabled (the time-base interrupt, or `start` before the encoder
+// interrupt is enabled), so no access ever overlaps a write on this single-core MCU.
+unsafe impl<const N: usize> Sync for IsrBytes<N> {}
+
+impl<const N: usize> IsrBytes<N> {
+    const fn zeroed() -> Self {
+        Self(UnsafeCell::new([0; N]))
+    }
+
+    /// Read the bytes. Call only with interrupts disabled (see the `Sync` impl).
+    fn read(&self, _cs: interrupt::CriticalSection<'_>) -> [u8; N] {
+        // SAFETY: the pointer is valid and aligned (it comes from the cell), and the
+        // critical section guarantees the encoder interrupt is not writing meanwhile.
+        unsafe { core::ptr::read_volatile(self.0.get()) }
+    }
+}
+
+/// The pair tables, in flash (`.progmem`, placed by avr-gcc's linker script in the first
+/// 64 KiB, where `lpm` reaches). Only the assembly below reads them; Rust code must not,
+/// since a normal load would read SRAM at the same address.
+#[unsafe(link_section = ".progmem.data.ratf_quadrature_first")]
+static FIRST_DELTA: FlashTable = FlashTable(pair_table(PairTable::FirstDelta));
+#[unsafe(link_section = ".progmem.data.ratf_quadrature_second")]
+static SECOND_DELTA: FlashTable = FlashTable(pair_table(PairTable::SecondDelta));
+#[unsafe(link_section = ".progmem.data.ratf_quadrature_skips")]
+static SKIP_COUNTS: FlashTable = FlashTable(pair_table(PairTable::Skips));
+
+/// Net counts mod 256 per encoder, written by the encoder interrupt.
+static POSITIONS: IsrBytes<ENCODERS> = IsrBytes::zeroed();
+/// Skipped transitions, two 4-bit wrapping counts per byte (encoders 0/1, 2/3; the first
+/// of a pair in the low nibble), written by the encoder interrupt.
+static SKIPS: IsrBytes<{ ENCODERS / 2 }> = IsrBytes::zeroed();
+
+/// The time-base state, shared between the time-base interrupt and the main loop.
+static FOLD: Mutex<RefCell<Fold>> = Mutex::new(RefCell::new(Fold::new([0; 4], [0; 2])));
+
+/// Timer1 compare A: the encoder interrupt. See the module documentation for the cycle
+/// count; the instruction comments give each one's cycles.
+///
+/// # Safety
+///
+/// Only the hardware calls it, as the `TIMER1_COMPA` vector. It preserves every register
+/// it uses and SREG, and touches only `PINA`, `GPIOR0..2`, the flash tables, [`POSITIONS`]
+/// and [`SKIPS`].
+#[unsafe(no_mangle)]
+#[unsafe(naked)]
+pub unsafe extern "C" fn __vector_17() {
+    core::arch::naked_asm!(
+        "out 0x2a, r24", // 1  GPIOR1 <- r24
+        "in r24, 0x3f",  // 1  SREG
+        "out 0x2b, r24", // 1  GPIOR2 <- SREG
+        "push r25",      // 2
+        "push r30",      // 2
+        "push r31",      // 2
+        "in r24, 0x00",  // 1  r24 = PINA (current)
+        "in r25, 0x1e",  // 1  r25 = GPIOR0 (previous)
+        "out 0x1e, r24", // 1  GPIOR0 <- current
+        // Pair 0 index in r30: previous low nibble << 4 | current low nibble.
+        "mov r30, r25",   // 1
+        "swap r30",       // 1
+        "andi r30, 0xf0", // 1
+        "mov r31, r24",   // 1
+        "andi r31, 0x0f", // 1
+        "or r30, r31",    // 1
+        // Pair 1 index in r25: previous high nibble << 4 | current high nibble.
+        "andi r25, 0xf0", // 1
+        "swap r24",       // 1
+        "andi r24, 0x0f", // 1
+        "or r25, r24",    // 1
+        // Encoder 0.
+        "ldi r31, hi8({first})", // 1
+        "lpm r24, Z",            // 3
+        "lds r31, {pos}",        // 2
+        "add r31, r24",          // 1
+        "sts {pos}, r31",        // 2
+        // Encoder 1.
+        "ldi r31, hi8({second})",
+        "lpm r24, Z",
+        "lds r31, {pos}+1",
+        "add r31, r24",
+        "sts {pos}+1, r31",
+        // Skips of encoders 0 and 1.
+        "ldi r31, hi8({skips})",
+        "lpm r24, Z",
+        "lds r31, {skip}",
+        "add r31, r24",
+        "sts {skip}, r31",
+        // Pair 1.
+        "mov r30, r25", // 1
+        "ldi r31, hi8({first})",
+        "lpm r24, Z",
+        "lds r31, {pos}+2",
+        "add r31, r24",
+        "sts {pos}+2, r31",
+        "ldi r31, hi8({second})",
+        "lpm r24, Z",
+        "lds r31, {pos}+3",
+        "add r31, r24",
+        "sts {pos}+3, r31",
+        "ldi r31, hi8({skips})",
+        "lpm r24, Z",
+        "lds r31, {skip}+1",
+        "add r31, r24",
+        "sts {skip}+1, r31",
+        "pop r31",       // 2
+        "pop r30",       // 2
+        "pop r25",       // 2
+        "in r24, 0x2b",  // 1  GPIOR2
+        "out 0x3f, r24", // 1  SREG
+        "in r24, 0x2a",  // 1  GPIOR1
+        "reti",          // 5
+        first = sym FIRST_DELTA,
+        second = sym SECOND_DELTA,
+        skips = sym SKIP_COUNTS,
+        pos = sym POSITIONS,
+        skip = sym SKIPS,
+    );
+}
+
+// Timer3 compare A, every millisecond: advance the clock and fold the encoder counters.
+// It copies the encoder bytes with interrupts still disabled (a few cycles), then enables
+// interrupts for the fold, so the encoder interrupt is never held off by the fold.
+#[avr_device::interrupt(atmega2560)]
+fn TIMER3_COMPA() {
+    // SAFETY: interrupts are disabled on entry to a handler, so this is a critical section
+    // until `enable` below; the token is used only for the two reads before that.
+    let cs = unsafe { interrupt::CriticalSection::new() };
+    let positions = POSITIONS.read(cs);
+    let skips = SKIPS.read(cs);
+    // SAFETY: enabling interrupts here lets the encoder and serial handlers nest inside
+    // this one. None of them touches FOLD, this handler cannot nest inside itself (it
+    // runs for far less than its 1 ms period), and the main loop, the only other user of
+    // FOLD, is suspended until this handler returns.
+    unsafe { interrupt::enable() };
+    // SAFETY: as above, no other code can access FOLD until this handler returns, which is
+    // the exclusivity a critical section would give.
+    let cs = unsafe { interrupt::CriticalSection::new() };
+    FOLD.borrow(cs)
+        .borrow_mut()
+        .on_millisecond(positions, skips);
+}
+
+/// Handle to the running encoder sampling and time base.
+pub struct Encoders {
+    _tc1: TC1,
+    _tc3: TC3,
+}
+
+impl Encoders {
+    /// Seed the previous sample with `pins` (the encoder pins' current state, `PINA`) and
+    /// start both timers (their interrupts run once interrupts are enabled).
+    pub fn start(tc1: TC1, tc3: TC3, cpu: &CPU, pins: u8) -> Self {
+        interrupt::free(|cs| {
+            // SAFETY: GPIOR0 is a plain storage register: every value is valid.
+            cpu.gpior0().write(|w| unsafe { w.bits(pins) });
+            *FOLD.borrow(cs).borrow_mut() = Fold::new(POSITIONS.read(cs), SKIPS.read(cs));
+        });
+        // Timer1: CTC with TOP = OCR1A (WGM1 = 0b0100), clk/1.
+        tc1.tccr1a().reset();
+        tc1.ocr1a().write(|w| w.set(ENCODER_TIMER_TOP));
+        tc1.tcnt1().write(|w| w.set(0));
+        tc1.tccr1b().write(|w| w.wgm1().set(0b01).cs1().direct());
+        tc1.timsk1().write(|w| w.ocie1a().set_bit());
+        // Timer3: CTC with TOP = OCR3A, clk/8.
+        tc3.tccr3a().reset();
+        tc3.ocr3a().write(|w| w.set(TIME_BASE_TIMER_TOP));
+        tc3.tcnt3().write(|w| w.set(0));
+        tc3.tccr3b()
+            .write(|w| w.wgm3().set(0b01).cs3().prescale_8());
+        tc3.timsk3().write(|w| w.ocie3a().set_bit());
+        Self {
+            _tc1: tc1,
+            _tc3: tc3,
+        }
+    }
+
+    /// The closed control window's sample, if one closed since the last call (taken with
+    /// interrupts disabled for a few microseconds).
+    pub fn take_sample(&mut self) -> Option<ControlSample> {
+        interrupt::free(|cs| FOLD.borrow(cs).borrow_mut().take_sample())
+    }
+
+    /// Time since boot, µs (wrapping), with millisecond resolution.
+    pub fn now_us(&self) -> u32 {
+        interrupt::free(|cs| FOLD.borrow(cs).borrow().now_us())
+    }
+}
