@@ -1,0 +1,395 @@
+//! Static cycle bounds of an interrupt handler, from `avr-objdump -d` of the ELF.
+//!
+//! avr-tester gives no access to the program counter, and a dynamic profile would need
+//! raw (unsafe) simavr calls, so the ISR cost is computed statically: every path from the
+//! interrupt vector to `reti` is walked, and its cycles summed with the ATmega2560's
+//! instruction timings (AVR Instruction Set Manual, AVRe+ core with a 22-bit PC; simavr's
+//! `sim_core.c` charges the same). avr-toolchain.md §3 reports that this static count and a
+//! cycle-by-cycle simavr profile agree exactly.
+//!
+//! The count includes the 5-cycle hardware entry (PC push + vector fetch, which simavr does
+//! not charge), the `jmp` in the vector table, the handler, any function it calls, and the
+//! 5-cycle `reti`. The analysis fails (with a message) instead of guessing when the handler
+//! has a loop (no static bound without loop bounds), an indirect jump or call, or an
+//! instruction it has no timing for.
+
+use crate::firmware::FirmwareError;
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::fmt;
+use std::path::Path;
+use std::process::Command;
+
+/// Cycles the CPU spends entering an interrupt on a 3-byte-PC AVR (ATmega2560 datasheet
+/// §7.8.1: "The interrupt execution response … is five clock cycles minimum").
+pub const HARDWARE_ENTRY_CYCLES: u64 = 5;
+/// Byte address of vector `n` in the ATmega2560's table (4 bytes per vector: a `jmp`).
+pub const fn vector_address(n: u32) -> u32 {
+    4 * n
+}
+/// TIMER1_COMPA's vector number on the ATmega2560 (`__vector_17`).
+pub const TIMER1_COMPA_VECTOR: u32 = 17;
+
+/// One disassembled instruction.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Instruction {
+    /// Byte address.
+    pub address: u32,
+    /// Size, bytes (2 or 4).
+    pub size: u32,
+    /// Mnemonic, e.g. `push`.
+    pub mnemonic: String,
+    /// Operands as printed, comment included (e.g. `.+4 ; 0x1e0 <f+0x58>`).
+    pub operands: String,
+}
+
+impl Instruction {
+    /// The target byte address of a direct jump, branch or call: the address objdump
+    /// prints in the comment, or the absolute operand of `jmp`/`call`.
+    fn target(&self) -> Option<u32> {
+        let text = match self.operands.split_once(';') {
+            Some((_, comment)) => comment,
+            None => self.operands.as_str(),
+        };
+        let hex = text
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .find_map(|tok| tok.strip_prefix("0x"))?;
+        u32::from_str_radix(hex, 16).ok()
+    }
+}
+
+/// Why the bounds could not be computed.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum AnalysisError {
+    /// The handler (or a callee) loops: its cost is not bounded without loop bounds.
+    Loop {
+        /// The address reached twice on one path.
+        address: u32,
+    },
+    /// An indirect jump or call (`ijmp`, `icall`, …): the target is not static.
+    Indirect {
+        /// Where.
+        address: u32,
+    },
+    /// An instruction with no timing in the table.
+    UnknownInstruction {
+        /// Where.
+        address: u32,
+        /// Its mnemonic.
+        mnemonic: String,
+    },
+    /// Control flow left the disassembled code.
+    NoInstruction {
+        /// The missing address.
+        address: u32,
+    },
+}
+
+impl fmt::Display for AnalysisError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Loop { address } => write!(
+                f,
+                "the ISR has a loop through 0x{address:x}: no static cycle bound"
+            ),
+            Self::Indirect { address } => {
+                write!(
+                    f,
+                    "indirect jump/call at 0x{address:x}: no static cycle bound"
+                )
+            }
+            Self::UnknownInstruction { address, mnemonic } => {
+                write!(f, "no cycle count for `{mnemonic}` at 0x{address:x}")
+            }
+            Self::NoInstruction { address } => {
+                write!(
+                    f,
+                    "control flow reaches 0x{address:x}, which was not disassembled"
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for AnalysisError {}
+
+/// Parse `avr-objdump -d` output into instructions by address.
+pub fn parse_objdump(text: &str) -> BTreeMap<u32, Instruction> {
+    let mut out = BTreeMap::new();
+    for line in text.lines() {
+        let fields: Vec<&str> = line.split('\t').collect();
+        if fields.len() < 3 {
+            continue;
+        }
+        let Some(address) = fields[0]
+            .trim()
+            .strip_suffix(':')
+            .and_then(|a| u32::from_str_radix(a, 16).ok())
+        else {
+            continue;
+        };
+        let bytes = fields[1].split_whitespace().count() as u32;
+        if bytes == 0 || !fields[1].split_whitespace().all(|b| b.len() == 2) {
+            continue;
+        }
+        out.insert(
+            address,
+            Instruction {
+                address,
+                size: bytes,
+                mnemonic: fields[2].trim().to_owned(),
+                operands: fields[3..].join("\t").trim().to_owned(),
+            },
+        );
+    }
+    out
+}
+
+/// Disassemble `elf` with `avr-objdump -d`.
+pub fn disassemble(elf: &Path) -> Result<BTreeMap<u32, Instruction>, FirmwareError> {
+    let output = Command::new("avr-objdump")
+        .arg("-d")
+        .arg(elf)
+        .output()
+        .map_err(|e| FirmwareError::Tool {
+            tool: "avr-objdump",
+            detail: format!("cannot run it ({e}); install binutils-avr"),
+        })?;
+    if !output.status.success() {
+        return Err(FirmwareError::Tool {
+            tool: "avr-objdump",
+            detail: String::from_utf8_lossy(&output.stderr).into_owned(),
+        });
+    }
+    Ok(parse_objdump(&String::from_utf8_lossy(&output.stdout)))
+}
+
+/// Cycle bounds over every path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CycleBounds {
+    /// Shortest path, cycles.
+    pub min: u64,
+    /// Longest path, cycles.
+    pub max: u64,
+}
+
+impl CycleBounds {
+    fn add(self, cycles: u64) -> Self {
+        Self {
+            min: self.min + cycles,
+            max: self.max + cycles,
+        }
+    }
+
+    fn join(self, other: Self) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+}
+
+/// Fixed cost of an instruction that does not change control flow, cycles (ATmega2560).
+fn straight_cycles(mnemonic: &str) -> Option<u64> {
+    const ONE: &[&str] = &[
+        "add", "adc", "sub", "subi", "sbc", "sbci", "and", "andi", "or", "ori", "eor", "com",
+        "neg", "sbr", "cbr", "inc", "dec", "tst", "clr", "ser", "mov", "movw", "ldi", "in", "out",
+        "lsl", "lsr", "rol", "ror", "asr", "swap", "bset", "bclr", "bst", "bld", "sec", "clc",
+        "sen", "cln", "sez", "clz", "sei", "cli", "ses", "cls", "sev", "clv", "set", "clt", "seh",
+        "clh", "nop", "wdr", "cp", "cpc", "cpi",
+    ];
+    const TWO: &[&str] = &[
+        "adiw", "sbiw", "mul", "muls", "mulsu", "fmul", "fmuls", "fmulsu", "ld", "ldd", "st",
+        "std", "lds", "sts", "push", "pop", "sbi", "cbi",
+    ];
+    const THREE: &[&str] = &["lpm", "elpm"];
+    if ONE.contains(&mnemonic) {
+        Some(1)
+    } else if TWO.contains(&mnemonic) {
+        Some(2)
+    } else if THREE.contains(&mnemonic) {
+        Some(3)
+    } else {
+        None
+    }
+}
+
+const SKIPS: &[&str] = &["cpse", "sbrc", "sbrs", "sbic", "sbis"];
+
+/// Walks the control-flow graph; memoises per (address, terminator).
+struct Walker<'a> {
+    code: &'a BTreeMap<u32, Instruction>,
+    memo: HashMap<(u32, bool), CycleBounds>,
+    on_path: HashSet<(u32, bool)>,
+}
+
+impl Walker<'_> {
+    /// Bounds from `address` to the terminator: `reti` when `in_isr`, else `ret`.
+    fn bounds(&mut self, address: u32, in_isr: bool) -> Result<CycleBounds, AnalysisError> {
+        let key = (address, in_isr);
+        if let Some(b) = self.memo.get(&key) {
+            return Ok(*b);
+        }
+        if !self.on_path.insert(key) {
+            return Err(AnalysisError::Loop { address });
+        }
+        let result = self.bounds_uncached(address, in_isr);
+        self.on_path.remove(&key);
+        let b = result?;
+        self.memo.insert(key, b);
+        Ok(b)
+    }
+
+    fn instruction(&self, address: u32) -> Result<&Instruction, AnalysisError> {
+        self.code
+            .get(&address)
+            .ok_or(AnalysisError::NoInstruction { address })
+    }
+
+    fn target(insn: &Instruction) -> Result<u32, AnalysisError> {
+        insn.target().ok_or(AnalysisError::NoInstruction {
+            address: insn.address,
+        })
+    }
+
+    fn bounds_uncached(
+        &mut self,
+        address: u32,
+        in_isr: bool,
+    ) -> Result<CycleBounds, AnalysisError> {
+        let insn = self.instruction(address)?.clone();
+        let next = address + insn.size;
+        let m = insn.mnemonic.as_str();
+        match m {
+            "reti" | "ret" => {
+                // A `ret` inside the ISR body or a `reti` in a callee would be a miscompile
+                // of what we analyse; both cost 5 cycles with a 3-byte PC.
+                Ok(CycleBounds { min: 5, max: 5 })
+            }
+            "rjmp" => Ok(self.bounds(Self::target(&insn)?, in_isr)?.add(2)),
+            "jmp" => Ok(self.bounds(Self::target(&insn)?, in_isr)?.add(3)),
+            "rcall" | "call" => {
+                let call_cycles = if m == "rcall" { 4 } else { 5 };
+                let callee = self.bounds(Self::target(&insn)?, false)?;
+                let rest = self.bounds(next, in_isr)?;
+                Ok(CycleBounds {
+                    min: call_cycles + callee.min + rest.min,
+                    max: call_cycles + callee.max + rest.max,
+                })
+            }
+            "ijmp" | "eijmp" | "icall" | "eicall" => Err(AnalysisError::Indirect { address }),
+            _ if m.starts_with("br") => {
+                let fall = self.bounds(next, in_isr)?.add(1);
+                let taken = self.bounds(Self::target(&insn)?, in_isr)?.add(2);
+                Ok(fall.join(taken))
+            }
+            _ if SKIPS.contains(&m) => {
+                let skipped = self.instruction(next)?;
+                let skip_cycles = 1 + u64::from(skipped.size / 2);
+                let after = next + skipped.size;
+                let no_skip = self.bounds(next, in_isr)?.add(1);
+                let skip = self.bounds(after, in_isr)?.add(skip_cycles);
+                Ok(no_skip.join(skip))
+            }
+            _ => {
+                let cycles =
+                    straight_cycles(m).ok_or_else(|| AnalysisError::UnknownInstruction {
+                        address,
+                        mnemonic: m.to_owned(),
+                    })?;
+                Ok(self.bounds(next, in_isr)?.add(cycles))
+            }
+        }
+    }
+}
+
+/// Cycle bounds of interrupt vector `vector`, from the hardware entry to the end of `reti`.
+pub fn isr_bounds(
+    code: &BTreeMap<u32, Instruction>,
+    vector: u32,
+) -> Result<CycleBounds, AnalysisError> {
+    let mut walker = Walker {
+        code,
+        memo: HashMap::new(),
+        on_path: HashSet::new(),
+    };
+    Ok(walker
+        .bounds(vector_address(vector), true)?
+        .add(HARDWARE_ENTRY_CYCLES))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LISTING: &str = "
+00000000 <__vectors>:
+   0:\t0c 94 72 00 \tjmp\t0xe4\t; 0xe4 <__ctors_end>
+  44:\t0c 94 c4 00 \tjmp\t0x188\t; 0x188 <__vector_17>
+
+00000188 <__vector_17>:
+ 188:\t1f 92       \tpush\tr1
+ 18a:\t0f b6       \tin\tr0, 0x3f\t; 63
+ 18c:\t80 91 10 02 \tlds\tr24, 0x0210\t; 0x800210 <x>
+ 190:\t81 11       \tcpse\tr24, r1
+ 192:\t0e 94 d0 00 \tcall\t0x1a0\t; 0x1a0 <f>
+ 196:\t88 23       \tand\tr24, r24
+ 198:\t09 f0       \tbreq\t.+2      \t; 0x19c <__vector_17+0x14>
+ 19a:\t83 95       \tinc\tr24
+ 19c:\t1f 90       \tpop\tr1
+ 19e:\t18 95       \treti
+
+000001a0 <f>:
+ 1a0:\t00 00       \tnop
+ 1a2:\t08 95       \tret
+";
+
+    #[test]
+    fn parses_addresses_sizes_and_targets() {
+        let code = parse_objdump(LISTING);
+        assert_eq!(code[&0x44].size, 4);
+        assert_eq!(code[&0x44].target(), Some(0x188));
+        assert_eq!(code[&0x198].mnemonic, "breq");
+        assert_eq!(code[&0x198].target(), Some(0x19c));
+        assert_eq!(code[&0x192].target(), Some(0x1a0));
+    }
+
+    #[test]
+    fn bounds_cover_skips_branches_and_calls() {
+        let code = parse_objdump(LISTING);
+        let b = isr_bounds(&code, 17).unwrap();
+        // entry 5 + jmp 3 + push 2 + in 1 + lds 2 = 13 before the cpse.
+        // cpse skipping the 2-word call: 3; not skipping: 1 + call 5 + nop 1 + ret 5 = 12.
+        // and 1; breq taken 2 / not taken 1 + inc 1 = 2; pop 2 + reti 5 = 7.
+        assert_eq!(b.min, 13 + 3 + 1 + 2 + 7);
+        assert_eq!(b.max, 13 + 12 + 1 + 2 + 7);
+    }
+
+    #[test]
+    fn loops_are_reported_not_guessed() {
+        let listing = "
+  44:\t0c 94 c4 00 \tjmp\t0x188\t; 0x188 <__vector_17>
+ 188:\t8a 95       \tdec\tr24
+ 18a:\tf1 f7       \tbrne\t.-4      \t; 0x188 <__vector_17>
+ 18c:\t18 95       \treti
+";
+        let code = parse_objdump(listing);
+        assert_eq!(
+            isr_bounds(&code, 17),
+            Err(AnalysisError::Loop { address: 0x188 })
+        );
+    }
+
+    #[test]
+    fn unknown_instructions_are_reported() {
+        let listing = "
+  44:\t0c 94 c4 00 \tjmp\t0x188\t; 0x188 <__vector_17>
+ 188:\t88 95       \tsleep
+ 18a:\t18 95       \treti
+";
+        let code = parse_objdump(listing);
+        assert!(matches!(
+            isr_bounds(&code, 17),
+            Err(AnalysisError::UnknownInstruction { .. })
+        ));
+    }
+}
