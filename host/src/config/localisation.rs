@@ -1,0 +1,222 @@
+//! `[localisation]`: the beacon EKF's noise model, gates and beacon extraction.
+
+use serde::{Deserialize, Serialize};
+
+use super::check::Checker;
+
+/// How a beacon's centre is estimated from its points (see `localisation::beacons`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CentreMethod {
+    /// Least-squares circle of the known radius through the points.
+    #[default]
+    CircleFit,
+    /// The points' centroid pushed away from the lidar by the radius (the original's way).
+    Centroid,
+}
+
+/// The localiser's settings. Defaults: the 5dpo robot with the X4 and the MPU9255.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LocalisationConfig {
+    /// Standard deviation of x and y after a reset, m. 0.10: assumption, the placement
+    /// error the benchmark injects (issue 5: "initial pose off by 10 cm").
+    pub initial_position_std_m: f64,
+    /// Standard deviation of the heading after a reset, degrees. 10: assumption, as above
+    /// ("off by 10°").
+    pub initial_heading_std_deg: f64,
+    /// Standard deviation of the gyro z bias after a reset, rad/s. 0.09: the MPU-9250
+    /// datasheet's initial zero-rate tolerance, ±5 °/s.
+    pub initial_gyro_bias_std_rad_s: f64,
+    /// Gyro bias random walk, rad/s/√s. 1e-4: assumption (slow thermal drift).
+    pub gyro_bias_walk_rad_s_sqrt_s: f64,
+    /// Gyro scale-factor error as a fraction of the rotation, per step (1σ). 0.01:
+    /// assumption (datasheet tolerance ±3 % before calibration; applied per step it is a
+    /// noise, not a bias).
+    pub gyro_scale_std: f64,
+    /// Translation variance per metre travelled, m²/m. 1e-4 (σ = 1 cm after 1 m):
+    /// assumption for mecanum rollers on a printed floor.
+    pub translation_var_m2_per_m: f64,
+    /// Translation variance per radian turned, m²/rad. 1e-5: assumption (a turning mecanum
+    /// base drifts sideways).
+    pub translation_var_m2_per_rad: f64,
+    /// Heading variance per radian turned when the wheels give the rotation, rad²/rad.
+    /// 4e-3 (σ ≈ 3.6° after turning 1 rad): assumption, mecanum yaw is the worst wheel
+    /// estimate.
+    pub wheel_heading_var_rad2_per_rad: f64,
+    /// Heading variance per metre travelled when the wheels give the rotation, rad²/m.
+    /// 1e-3: assumption.
+    pub wheel_heading_var_rad2_per_m: f64,
+    /// Difference between the wheels' and the gyro's yaw increment over one odometry step
+    /// above which the step counts as wheel slip, rad. 0.005 (0.29°, 0.25 rad/s over
+    /// 20 ms): assumption, well above the gyro's noise over 20 ms (2.5e-5 rad).
+    pub slip_threshold_rad: f64,
+    /// Factor on the translation variance of a slipping step. 25 (σ × 5): assumption.
+    pub slip_translation_var_factor: f64,
+    /// Oldest gyro data still used for a step: the gyro must reach within this of the
+    /// step's end, µs. 20000 (four 200 Hz samples): assumption.
+    pub gyro_max_gap_us: u64,
+    /// Odometry steps (states and inputs) kept to re-apply after a late scan. 64 (1.28 s
+    /// at 50 Hz; a scan is ~0.14–0.3 s late): assumption.
+    pub history_steps: usize,
+    /// Range noise of one lidar point, m. 0.01: the `[lidar]` assumption (σ_d of the
+    /// original's R, original-system.md §5).
+    pub range_noise_std_m: f64,
+    /// Floor on a beacon observation's range standard deviation, m. 0.003: assumption
+    /// (beacon placement, lidar calibration).
+    pub range_floor_std_m: f64,
+    /// Floor on a beacon observation's bearing standard deviation, degrees. 0.3:
+    /// assumption (mount yaw calibration, angle quantisation 1/64°).
+    pub bearing_floor_std_deg: f64,
+    /// Radius around a beacon's predicted centre searched for its points, before the
+    /// uncertainty term, m. 0.15: assumption (the original used 0.20 from the beacon centre
+    /// for the points; this is for the fitted centre's neighbourhood).
+    pub association_radius_m: f64,
+    /// Standard deviations of the predicted beacon position added to the search radius.
+    /// 3: assumption.
+    pub association_sigmas: f64,
+    /// Largest gap between consecutive points of one cluster, m. 0.04: assumption (two
+    /// rays 0.5° apart at 2 m are 0.017 m apart on a surface facing the lidar).
+    pub cluster_gap_m: f64,
+    /// Fewest points for a beacon observation. 2: assumption.
+    pub min_points: usize,
+    /// Fewest points as a fraction of those a 9 cm pole gives at that range. 0.4:
+    /// assumption (edge rays at grazing incidence are often lost).
+    pub min_point_fraction: f64,
+    /// Most points as a multiple of those a 9 cm pole gives at that range, plus 2. 1.5:
+    /// assumption (a 12 cm leg gives 1.33×).
+    pub max_point_factor: f64,
+    /// Largest cluster extent above the pole's diameter, m. 0.03: assumption (3σ of the
+    /// range noise).
+    pub extent_margin_m: f64,
+    /// Largest RMS distance of the points to the fitted circle, m. 0.025: assumption
+    /// (2.5σ of the range noise).
+    pub max_fit_rms_m: f64,
+    /// How the centre is estimated.
+    pub centre_method: CentreMethod,
+    /// Mahalanobis gate on a beacon innovation, χ² with 2 degrees of freedom. 9.21: the
+    /// 99 % quantile.
+    pub gate_chi2: f64,
+    /// Consecutive scans in which no beacon passed the gate while at least two were seen
+    /// after which the pose uncertainty is raised back to the reset values (the robot was
+    /// moved or the filter is lost; a gate on a too-confident state would otherwise lock
+    /// every beacon out for good). 3: assumption (under half a second at 7 Hz).
+    pub relock_after_scans: u32,
+}
+
+impl Default for LocalisationConfig {
+    fn default() -> Self {
+        Self {
+            initial_position_std_m: 0.10,
+            initial_heading_std_deg: 10.0,
+            initial_gyro_bias_std_rad_s: 0.09,
+            gyro_bias_walk_rad_s_sqrt_s: 1e-4,
+            gyro_scale_std: 0.01,
+            translation_var_m2_per_m: 1e-4,
+            translation_var_m2_per_rad: 1e-5,
+            wheel_heading_var_rad2_per_rad: 4e-3,
+            wheel_heading_var_rad2_per_m: 1e-3,
+            slip_threshold_rad: 0.005,
+            slip_translation_var_factor: 25.0,
+            gyro_max_gap_us: 20_000,
+            history_steps: 64,
+            range_noise_std_m: 0.01,
+            range_floor_std_m: 0.001,
+            bearing_floor_std_deg: 0.1,
+            association_radius_m: 0.15,
+            association_sigmas: 3.0,
+            cluster_gap_m: 0.04,
+            min_points: 2,
+            min_point_fraction: 0.4,
+            max_point_factor: 1.5,
+            extent_margin_m: 0.03,
+            max_fit_rms_m: 0.025,
+            centre_method: CentreMethod::CircleFit,
+            gate_chi2: 9.21,
+            relock_after_scans: 3,
+        }
+    }
+}
+
+impl LocalisationConfig {
+    pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.positive("initial_position_std_m", self.initial_position_std_m);
+        c.within(
+            "initial_heading_std_deg",
+            self.initial_heading_std_deg,
+            0.01,
+            180.0,
+        );
+        c.positive(
+            "initial_gyro_bias_std_rad_s",
+            self.initial_gyro_bias_std_rad_s,
+        );
+        c.non_negative(
+            "gyro_bias_walk_rad_s_sqrt_s",
+            self.gyro_bias_walk_rad_s_sqrt_s,
+        );
+        c.non_negative("gyro_scale_std", self.gyro_scale_std);
+        c.non_negative("translation_var_m2_per_m", self.translation_var_m2_per_m);
+        c.non_negative(
+            "translation_var_m2_per_rad",
+            self.translation_var_m2_per_rad,
+        );
+        c.non_negative(
+            "wheel_heading_var_rad2_per_rad",
+            self.wheel_heading_var_rad2_per_rad,
+        );
+        c.non_negative(
+            "wheel_heading_var_rad2_per_m",
+            self.wheel_heading_var_rad2_per_m,
+        );
+        c.positive("slip_threshold_rad", self.slip_threshold_rad);
+        c.within(
+            "slip_translation_var_factor",
+            self.slip_translation_var_factor,
+            1.0,
+            1e6,
+        );
+        c.nonzero("gyro_max_gap_us", self.gyro_max_gap_us);
+        c.require("history_steps", self.history_steps >= 2, || {
+            format!("must be at least 2 (got {})", self.history_steps)
+        });
+        c.positive("range_noise_std_m", self.range_noise_std_m);
+        c.positive("range_floor_std_m", self.range_floor_std_m);
+        c.positive("bearing_floor_std_deg", self.bearing_floor_std_deg);
+        c.positive("association_radius_m", self.association_radius_m);
+        c.non_negative("association_sigmas", self.association_sigmas);
+        c.positive("cluster_gap_m", self.cluster_gap_m);
+        c.require("min_points", self.min_points >= 1, || {
+            "must be at least 1".to_owned()
+        });
+        c.within("min_point_fraction", self.min_point_fraction, 0.0, 1.0);
+        c.within("max_point_factor", self.max_point_factor, 1.0, 100.0);
+        c.non_negative("extent_margin_m", self.extent_margin_m);
+        c.positive("max_fit_rms_m", self.max_fit_rms_m);
+        c.positive("gate_chi2", self.gate_chi2);
+        c.nonzero("relock_after_scans", u64::from(self.relock_after_scans));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid_and_bad_values_are_named() {
+        let mut issues = Vec::new();
+        LocalisationConfig::default().check(&mut Checker::new("localisation", &mut issues));
+        assert!(issues.is_empty(), "{issues:?}");
+        let bad = LocalisationConfig {
+            gate_chi2: 0.0,
+            history_steps: 1,
+            ..LocalisationConfig::default()
+        };
+        bad.check(&mut Checker::new("localisation", &mut issues));
+        let keys: Vec<_> = issues.iter().map(|i| i.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            ["localisation.history_steps", "localisation.gate_chi2"]
+        );
+    }
+}

@@ -1,0 +1,99 @@
+//! `[mega]`: the Mega firmware's numbers, convertible into the protocol's `McuConfig`.
+
+use ratf_protocol::mcu::McuConfig;
+use ratf_protocol::pi::{DeadZone, PiConfig, PiGains};
+use serde::{Deserialize, Serialize};
+
+use super::check::Checker;
+
+/// The firmware's control-loop numbers. Defaults = [`McuConfig::default`] (the original's
+/// timing and limits, original-system.md §2.2, and the PI gains of
+/// [`ratf_protocol::pi::PiGains`]). Ticks per revolution and battery voltage come from
+/// `robot.ticks_per_wheel_rev` and `motor.battery_voltage_v`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MegaConfig {
+    /// Control period, µs. 20 000 (50 Hz): original §2.2.
+    pub control_period_us: u32,
+    /// Watchdog timeout after the last wheel command, µs. 100 000: original §2.2.
+    pub watchdog_timeout_us: u32,
+    /// Largest PWM magnitude. 255: the motor shield library's 8-bit range.
+    pub pwm_max: i16,
+    /// Largest PWM change per tick. 100: original §2.2.
+    pub pwm_slew_per_tick: i16,
+    /// PI proportional gain Kc, V/(rad/s). 1/2.19: the original's IMC rule (§2.2) applied
+    /// to the measured motor gain (see `ratf_protocol::pi::PiGains`; the original used 1/4.5).
+    pub kc_v_per_rad_s: f64,
+    /// PI integral gain Ki = Kc/Ti, V/rad. Ti = 0.1 s, the motor's time constant: 4.566.
+    pub ki_v_per_rad: f64,
+    /// Feed-forward Kf, V/(rad/s). 0: with the correct Kc the PI alone suffices (the
+    /// original's 0.456 made up for its halved Kc).
+    pub kf_v_per_rad_s: f64,
+    /// Hammerstein dead zone V0, V. 0: disabled, as the original ships (§2.5).
+    pub dead_zone_v0_v: f64,
+    /// Hammerstein compensated range Vd, V. 0: disabled (§2.5).
+    pub dead_zone_vd_v: f64,
+    /// Close each telemetry batch with a checksum frame. true: the ratf extension.
+    pub send_checksums: bool,
+}
+
+impl Default for MegaConfig {
+    fn default() -> Self {
+        let d = McuConfig::default();
+        let g = d.pi.gains;
+        Self {
+            control_period_us: d.control_period_us,
+            watchdog_timeout_us: d.watchdog_timeout_us,
+            pwm_max: d.pwm_max,
+            pwm_slew_per_tick: d.pwm_slew_per_tick,
+            kc_v_per_rad_s: f64::from(g.kc_v_per_rad_s),
+            ki_v_per_rad: f64::from(g.ki_v_per_rad),
+            kf_v_per_rad_s: f64::from(g.kf_v_per_rad_s),
+            dead_zone_v0_v: f64::from(d.pi.dead_zone.v0_v),
+            dead_zone_vd_v: f64::from(d.pi.dead_zone.vd_v),
+            send_checksums: d.send_checksums,
+        }
+    }
+}
+
+impl MegaConfig {
+    /// The protocol's configuration (f32 on the Mega).
+    pub fn to_mcu_config(&self, ticks_per_wheel_rev: f64, battery_voltage_v: f64) -> McuConfig {
+        McuConfig {
+            control_period_us: self.control_period_us,
+            watchdog_timeout_us: self.watchdog_timeout_us,
+            ticks_per_wheel_rev: ticks_per_wheel_rev as f32,
+            battery_voltage_v: battery_voltage_v as f32,
+            pwm_max: self.pwm_max,
+            pwm_slew_per_tick: self.pwm_slew_per_tick,
+            pi: PiConfig {
+                gains: PiGains {
+                    kc_v_per_rad_s: self.kc_v_per_rad_s as f32,
+                    ki_v_per_rad: self.ki_v_per_rad as f32,
+                    kf_v_per_rad_s: self.kf_v_per_rad_s as f32,
+                },
+                dead_zone: DeadZone {
+                    v0_v: self.dead_zone_v0_v as f32,
+                    vd_v: self.dead_zone_vd_v as f32,
+                },
+            },
+            send_checksums: self.send_checksums,
+        }
+    }
+
+    pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.nonzero("control_period_us", self.control_period_us.into());
+        c.nonzero("watchdog_timeout_us", self.watchdog_timeout_us.into());
+        c.require("pwm_max", (1..=255).contains(&self.pwm_max), || {
+            format!("must be within [1, 255] (got {})", self.pwm_max)
+        });
+        c.require("pwm_slew_per_tick", self.pwm_slew_per_tick > 0, || {
+            format!("must be > 0 (got {})", self.pwm_slew_per_tick)
+        });
+        c.non_negative("kc_v_per_rad_s", self.kc_v_per_rad_s);
+        c.non_negative("ki_v_per_rad", self.ki_v_per_rad);
+        c.non_negative("kf_v_per_rad_s", self.kf_v_per_rad_s);
+        c.non_negative("dead_zone_v0_v", self.dead_zone_v0_v);
+        c.non_negative("dead_zone_vd_v", self.dead_zone_vd_v);
+    }
+}
