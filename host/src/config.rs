@@ -23,7 +23,7 @@ pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
 pub use motor::{MotorConfig, TractionConfig};
 pub use robot::{ImuConfig, RobotConfig};
-pub use sim::SimConfig;
+pub use sim::{ClutterConfig, SimConfig};
 
 use check::Checker;
 

@@ -14,5 +14,6 @@ pub mod field;
 pub mod kinematics;
 pub mod localisation;
 pub mod odometry;
+pub mod plot;
 pub mod robot;
 pub mod sim;

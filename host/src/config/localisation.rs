@@ -97,10 +97,11 @@ pub struct LocalisationConfig {
     /// Mahalanobis gate on a beacon innovation, χ² with 2 degrees of freedom. 9.21: the
     /// 99 % quantile.
     pub gate_chi2: f64,
-    /// Consecutive scans in which no beacon passed the gate while at least two were seen
-    /// after which the pose uncertainty is raised back to the reset values (the robot was
-    /// moved or the filter is lost; a gate on a too-confident state would otherwise lock
-    /// every beacon out for good). 3: assumption (under half a second at 7 Hz).
+    /// Consecutive scans (with points) in which no beacon was applied, after which the
+    /// pose uncertainty is raised back to the reset values (the robot was carried or the
+    /// filter is lost: a search radius and a gate sized for a too-confident state would
+    /// otherwise lock every beacon out for good). 3: assumption (under half a second at
+    /// 7 Hz).
     pub relock_after_scans: u32,
 }
 

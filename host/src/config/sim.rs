@@ -1,4 +1,4 @@
-//! `[sim]`: the simulator's seed and time step.
+//! `[sim]`: the simulator's seed, time step, and what stands around the field.
 
 use serde::{Deserialize, Serialize};
 
@@ -14,13 +14,103 @@ pub struct SimConfig {
     /// Physics time step, µs. 1000: assumption (20 steps per 20 ms control period; the
     /// motor time constant is 100 ms). Must divide `mega.control_period_us`.
     pub time_step_us: u32,
+    /// Things around the field the lidar may see (`[[sim.clutter]]`, world frame). Default:
+    /// a person standing 0.2 m beyond the floor's right edge (legs at x = 1.1 and 1.3 m) and
+    /// the edge of a 0.75 m table 0.3 m beyond its top edge: assumptions, a competition field
+    /// is never alone in its hall. Neither is within 0.45 m of a beacon.
+    pub clutter: Vec<ClutterConfig>,
+}
+
+/// One thing standing near the field, `kind = "cylinder"` or `kind = "block"`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ClutterConfig {
+    /// A vertical cylinder (a leg, a pole), m.
+    Cylinder {
+        /// Centre x, m.
+        x_m: f64,
+        /// Centre y, m.
+        y_m: f64,
+        /// Radius, m.
+        radius_m: f64,
+        /// Height, m.
+        height_m: f64,
+    },
+    /// A vertical box, axis-aligned (a table, a wall), m.
+    Block {
+        /// Lowest x, m.
+        x_min_m: f64,
+        /// Highest x, m.
+        x_max_m: f64,
+        /// Lowest y, m.
+        y_min_m: f64,
+        /// Highest y, m.
+        y_max_m: f64,
+        /// Height, m.
+        height_m: f64,
+    },
+}
+
+impl ClutterConfig {
+    /// A person's two legs (Ø 0.12 m, 0.2 m apart along x, 0.8 m tall) centred at (x, y):
+    /// an assumption of typical adult proportions.
+    pub fn person(x_m: f64, y_m: f64) -> [Self; 2] {
+        [-0.1, 0.1].map(|dx| Self::Cylinder {
+            x_m: x_m + dx,
+            y_m,
+            radius_m: 0.06,
+            height_m: 0.8,
+        })
+    }
+
+    fn check(&self, c: &mut Checker<'_>, key: &str) {
+        match *self {
+            Self::Cylinder {
+                x_m,
+                y_m,
+                radius_m,
+                height_m,
+            } => {
+                c.finite(&format!("{key}.x_m"), x_m);
+                c.finite(&format!("{key}.y_m"), y_m);
+                c.positive(&format!("{key}.radius_m"), radius_m);
+                c.positive(&format!("{key}.height_m"), height_m);
+            }
+            Self::Block {
+                x_min_m,
+                x_max_m,
+                y_min_m,
+                y_max_m,
+                height_m,
+            } => {
+                c.finite(&format!("{key}.x_min_m"), x_min_m);
+                c.finite(&format!("{key}.y_min_m"), y_min_m);
+                c.require(&format!("{key}.x_max_m"), x_max_m > x_min_m, || {
+                    format!("must exceed x_min_m = {x_min_m} (got {x_max_m})")
+                });
+                c.require(&format!("{key}.y_max_m"), y_max_m > y_min_m, || {
+                    format!("must exceed y_min_m = {y_min_m} (got {y_max_m})")
+                });
+                c.positive(&format!("{key}.height_m"), height_m);
+            }
+        }
+    }
 }
 
 impl Default for SimConfig {
     fn default() -> Self {
+        let mut clutter = ClutterConfig::person(1.2, 0.0).to_vec();
+        clutter.push(ClutterConfig::Block {
+            x_min_m: -0.6,
+            x_max_m: 0.6,
+            y_min_m: 0.9,
+            y_max_m: 1.0,
+            height_m: 0.75,
+        });
         Self {
             seed: 1,
             time_step_us: 1000,
+            clutter,
         }
     }
 }
@@ -28,6 +118,9 @@ impl Default for SimConfig {
 impl SimConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>, control_period_us: u32) {
         c.nonzero("time_step_us", self.time_step_us.into());
+        for (i, clutter) in self.clutter.iter().enumerate() {
+            clutter.check(c, &format!("clutter[{i}]"));
+        }
         if self.time_step_us != 0 && control_period_us != 0 {
             c.require(
                 "time_step_us",
@@ -40,5 +133,53 @@ impl SimConfig {
                 },
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clutter_parses_from_toml_by_kind() {
+        let text = r#"
+            [[clutter]]
+            kind = "cylinder"
+            x_m = 1.0
+            y_m = 0.2
+            radius_m = 0.05
+            height_m = 1.0
+
+            [[clutter]]
+            kind = "block"
+            x_min_m = 0.0
+            x_max_m = 1.0
+            y_min_m = 0.9
+            y_max_m = 1.0
+            height_m = 0.7
+        "#;
+        let sim: SimConfig = toml::from_str(text).unwrap();
+        assert_eq!(sim.clutter.len(), 2);
+        assert!(matches!(sim.clutter[1], ClutterConfig::Block { height_m, .. } if height_m == 0.7));
+        let bad = toml::from_str::<SimConfig>("[[clutter]]\nkind = \"sphere\"\n");
+        assert!(bad.is_err());
+    }
+
+    #[test]
+    fn a_backwards_block_is_rejected_by_key() {
+        let sim = SimConfig {
+            clutter: vec![ClutterConfig::Block {
+                x_min_m: 1.0,
+                x_max_m: 0.0,
+                y_min_m: 0.0,
+                y_max_m: 1.0,
+                height_m: 1.0,
+            }],
+            ..SimConfig::default()
+        };
+        let mut issues = Vec::new();
+        sim.check(&mut Checker::new("sim", &mut issues), 20_000);
+        assert_eq!(issues.len(), 1);
+        assert_eq!(issues[0].key, "sim.clutter[0].x_max_m");
     }
 }

@@ -333,6 +333,26 @@ mod tests {
         }
     }
 
+    proptest::proptest! {
+        #[test]
+        fn jacobian_matches_finite_differences_anywhere(
+            x in -0.8f64..0.8, y in -0.5f64..0.5, theta in -3.1f64..3.1,
+            mx in -0.1f64..0.1, my in -0.1f64..0.1, myaw in -3.1f64..3.1,
+        ) {
+            let mean = Vector4::new(x, y, theta, 0.0);
+            let mount = Pose2::new(mx, my, myaw);
+            let b = Vec2::new(0.888, 0.538);
+            let (h, jac) = predicted_measurement(&mean, b, mount).unwrap();
+            for i in 0..3 {
+                let mut m = mean;
+                m[i] += 1e-7;
+                let (h2, _) = predicted_measurement(&m, b, mount).unwrap();
+                let num = Vector2::new(h2.x - h.x, wrap_angle(h2.y - h.y)) / 1e-7;
+                proptest::prop_assert!((num - jac.column(i)).norm() < 1e-4, "column {}", i);
+            }
+        }
+    }
+
     #[test]
     fn an_update_pulls_towards_the_observation_and_shrinks_the_covariance() {
         let config = LocalisationConfig::default();

@@ -50,9 +50,9 @@
 //! Mahalanobis distance is taken and gated at χ²(2 dof) `gate_chi2`; sequential updates in
 //! Joseph form, each re-linearised at the updated state, angles wrapped. The inputs since
 //! the reference time are then re-applied ([`history`]), so a scan handled late gives the
-//! same result as the same scan handled on time. When every beacon seen (at least two) is
-//! gated out for `relock_after_scans` scans in a row, the pose covariance is raised back to
-//! the reset values around the current mean so that the beacons can be taken again.
+//! same result as the same scan handled on time. When no beacon is applied for
+//! `relock_after_scans` scans in a row, the pose covariance is raised back to the reset
+//! values around the current mean, so that the beacons can be found and taken again.
 //!
 //! # The original ([`original::OriginalFilter`])
 //!
@@ -127,7 +127,7 @@ pub struct Health {
     pub gyro_bias_rad_s: Option<f64>,
     /// The last scan.
     pub last_scan: ScanReport,
-    /// Scans that were applied.
+    /// Scans processed (recent enough for the history), whether or not a beacon was used.
     pub scans_applied: u64,
     /// Scans older than the history (not applied).
     pub scans_too_late: u64,
@@ -145,10 +145,10 @@ pub struct Health {
     pub wheel_rotation_steps: u64,
     /// Inputs ignored because they were not after the previous one of their kind.
     pub inputs_out_of_order: u64,
-    /// Consecutive scans in which every beacon seen was gated out.
-    pub scans_all_gated: u32,
-    /// Times the pose uncertainty was raised after [`Health::scans_all_gated`] reached the
-    /// configured limit.
+    /// Consecutive scans in which no beacon was applied.
+    pub scans_without_beacons: u32,
+    /// Times the pose uncertainty was raised after [`Health::scans_without_beacons`]
+    /// reached the configured limit.
     pub relocks: u64,
 }
 

@@ -25,6 +25,8 @@ pub const REVOLUTION_US: f64 = 1e6 / 7.0;
 pub const ODOM_US: u64 = 20_000;
 /// Gyro period, µs (200 Hz).
 pub const GYRO_US: u64 = 5_000;
+/// Standard deviation of the synthetic wheels' yaw increment, as a fraction of it.
+pub const WHEEL_YAW_ERROR_FRACTION: f64 = 0.02;
 
 /// One revolution seen by a lidar mounted as in `robot`, the robot at `pose_at(t_us)`
 /// while it sweeps, first sample at `stamp_us`; `circles` are what it can hit.
@@ -220,10 +222,10 @@ pub fn run(estimator: &mut dyn PoseEstimator, scenario: &Scenario) -> Vec<Sample
                 .sqrt();
             increment.dx_m += rng.normal(s);
             increment.dy_m += rng.normal(s);
-            let sh = (config.wheel_heading_var_rad2_per_rad * dth
-                + config.wheel_heading_var_rad2_per_m * d)
-                .sqrt();
-            increment.dtheta_rad += rng.normal(sh);
+            // The wheels' yaw without slip: 2 % of the rotation (assumption; the model's
+            // wheel-heading variance is the conservative fallback when the gyro is missing,
+            // and drawing from it would flag normal steps as slip).
+            increment.dtheta_rad += rng.normal(WHEEL_YAW_ERROR_FRACTION * dth);
         }
         events.push((t, 1, Event::Odometry(increment)));
         t += ODOM_US;
@@ -338,4 +340,9 @@ pub fn simulated_scans(
         t_ns = next;
     }
     scans
+}
+
+/// Turning on the spot at 1.5 rad/s (the sweep sees 12° of rotation).
+pub fn spinning(t_s: f64) -> Pose2 {
+    Pose2::new(0.1, -0.05, wrap_angle(1.5 * t_s))
 }

@@ -135,7 +135,6 @@ impl SimulatedRobot {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::field::Field;
     use crate::field::geometry::Pose2;
     use crate::kinematics::BodyTwist;
 
@@ -144,7 +143,7 @@ mod tests {
         let start = Pose2::new(-0.64, -0.42, std::f64::consts::FRAC_PI_2);
         let scenario = Scenario {
             start_pose: start,
-            ..Scenario::empty(&Field::competition())
+            ..Scenario::new(&config)
         };
         let mut sim = SimulatedRobot::new(&config, &scenario, start).unwrap();
         while (sim.now_us() as f64) < seconds * 1e6 {

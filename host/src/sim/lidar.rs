@@ -19,8 +19,10 @@
 //! angle quantisation (1/64°) of the packet format; the X4's angle correction (the sample at
 //! head angle θ is the point at bearing θ + AngCorrect(d)).
 
-use crate::config::{LidarConfig, RobotConfig};
-use crate::drivers::x4::packet::{PacketSpec, encode_packet};
+use crate::config::{ClutterConfig, LidarConfig, RobotConfig};
+use crate::drivers::x4::packet::{
+    CORRECTION_BASE_MM, CORRECTION_OFFSET_MM, PacketSpec, encode_packet,
+};
 use crate::field::Field;
 use crate::field::geometry::{Circle, Pose2, Rect, Vec2, wrap_angle};
 use crate::sim::rng::SimRng;
@@ -35,9 +37,9 @@ const SAMPLES_PER_PACKET: usize = 40;
 /// crosses that axis 155.3 mm out. Ray-casting that beam makes the simulated samples agree
 /// with the correction for any object, however narrow (a 9 cm pole spans less than the 7°
 /// correction at 1 m, so shifting a centre-ray distance by the correction would miss it).
-const BEAM_OFFSET_M: f64 = 0.0218;
+const BEAM_OFFSET_M: f64 = CORRECTION_OFFSET_MM / 1000.0;
 /// Where the beam crosses the head's axis, m (see [`BEAM_OFFSET_M`]).
-const BEAM_CROSSING_M: f64 = 0.1553;
+const BEAM_CROSSING_M: f64 = CORRECTION_BASE_MM / 1000.0;
 
 /// Something standing on or around the floor that may reach the lidar's plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,6 +66,37 @@ impl Solid {
             Shape::Block(rect) => rect.ray_intersection(origin, direction),
         }
     }
+}
+
+impl From<&ClutterConfig> for Solid {
+    fn from(clutter: &ClutterConfig) -> Self {
+        match *clutter {
+            ClutterConfig::Cylinder {
+                x_m,
+                y_m,
+                radius_m,
+                height_m,
+            } => Solid {
+                shape: Shape::Cylinder(Circle::new(Vec2::new(x_m, y_m), radius_m)),
+                height_m,
+            },
+            ClutterConfig::Block {
+                x_min_m,
+                x_max_m,
+                y_min_m,
+                y_max_m,
+                height_m,
+            } => Solid {
+                shape: Shape::Block(Rect::from_spans(x_min_m, x_max_m, y_min_m, y_max_m)),
+                height_m,
+            },
+        }
+    }
+}
+
+/// A person standing with their legs around `center` ([`ClutterConfig::person`]).
+pub fn person(center: Vec2) -> [Solid; 2] {
+    ClutterConfig::person(center.x, center.y).map(|leg| Solid::from(&leg))
 }
 
 /// Everything the lidar can hit, already filtered to what reaches its plane.
@@ -267,15 +300,6 @@ pub fn interpolate(a: Pose2, b: Pose2, fraction: f64) -> Pose2 {
     )
 }
 
-/// A person standing: two legs 0.2 m apart (centres), Ø 0.12 m, 0.8 m tall (crotch height),
-/// side by side along x around `center`. An assumption of typical adult proportions.
-pub fn person(center: Vec2) -> [Solid; 2] {
-    [-0.1, 0.1].map(|dx| Solid {
-        shape: Shape::Cylinder(Circle::new(center + Vec2::new(dx, 0.0), 0.06)),
-        height_m: 0.8,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -312,8 +336,10 @@ mod tests {
         let field = Field::competition();
         let scene = LidarScene::new(&field, &[], 0.20);
         assert_eq!(scene.solids().len(), 4);
-        let with_person = LidarScene::new(&field, &person(Vec2::new(1.2, 0.0)), 0.20);
-        assert_eq!(with_person.solids().len(), 6);
+        let config = crate::config::Config::default();
+        let clutter = crate::sim::world::Scenario::new(&config).clutter;
+        let with_clutter = LidarScene::new(&field, &clutter, 0.20);
+        assert_eq!(with_clutter.solids().len(), 4 + config.sim.clutter.len());
     }
 
     #[test]

@@ -7,10 +7,12 @@
 
 pub mod body;
 pub mod collision;
+pub mod drive;
 pub mod harness;
 pub mod lidar;
 pub mod motor;
 pub mod parts;
 pub mod rng;
+pub mod scripts;
 pub mod serial;
 pub mod world;

@@ -56,14 +56,15 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// The robot at the field's start pose, no parts, no clutter.
-    pub fn empty(field: &Field) -> Self {
+    /// The robot at the field's start pose, no parts, the clutter of `config.sim`.
+    pub fn new(config: &Config) -> Self {
+        let clutter = config.sim.clutter.iter().map(Solid::from).collect();
         Self {
-            start_pose: field.start_pose(),
+            start_pose: Field::competition().start_pose(),
             incoming: [None; 4],
             machine_delay_us: 0,
             green_to_blue_at_a: false,
-            clutter: Vec::new(),
+            clutter,
             gyro_bias_rad_s: 0.005,
         }
     }
@@ -149,6 +150,7 @@ pub struct World {
     overlapping: Vec<Obstruction>,
     collisions: Vec<Collision>,
     part_events: Vec<(u64, PartEvent)>,
+    tick_poses: Vec<Pose2>,
     stats: WorldStats,
 }
 
@@ -203,6 +205,7 @@ impl World {
             overlapping: Vec::new(),
             collisions: Vec::new(),
             part_events: Vec::new(),
+            tick_poses: Vec::new(),
             stats: WorldStats::default(),
             now_ns: 0,
             field,
@@ -253,6 +256,13 @@ impl World {
     /// Part events so far, with their times (µs).
     pub fn part_events(&self) -> &[(u64, PartEvent)] {
         &self.part_events
+    }
+
+    /// The true pose at each Mega control tick so far: entry n (0-based) is the pose when the
+    /// Mega counted the encoders for its n-th telemetry batch, the ground truth that batch's
+    /// odometry should match.
+    pub fn tick_poses(&self) -> &[Pose2] {
+        &self.tick_poses
     }
 
     /// The lidar, to inject faults (e.g. switch it off for a while).
@@ -350,6 +360,7 @@ impl World {
             switch_pressed: self.shop.switch_contact(self.body.pose).is_some(),
             ..TickInputs::default()
         };
+        self.tick_poses.push(self.body.pose);
         let out = self.mcu.control_tick(mega_now_us, &inputs);
         self.actuation = out.actuation;
         self.from_mega.send(out.telemetry.as_bytes(), self.now_ns);
@@ -423,12 +434,11 @@ mod tests {
 
     fn world(pose: Pose2) -> World {
         let config = Config::default();
-        let field = Field::competition();
         World::new(
             &config,
             &Scenario {
                 start_pose: pose,
-                ..Scenario::empty(&field)
+                ..Scenario::new(&config)
             },
         )
     }

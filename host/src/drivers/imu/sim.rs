@@ -8,43 +8,19 @@
 //! GYRO_CONFIG / ACCEL_CONFIG and clipped to i16, exactly as the chip reports it. While the
 //! SLEEP bit is set the data registers read 0.
 //!
-//! Deterministic: noise comes from a SplitMix64 generator seeded by the caller (written
-//! here, 10 lines, so no RNG crate is needed), turned into Gaussian samples by Box–Muller.
+//! Deterministic: noise comes from the simulator's generator ([`SimRng`]) seeded by the
+//! caller.
 
 use super::registers::{
     ACCEL_CONFIG, ACCEL_XOUT_H, AccelRange, DEFAULT_ADDRESS, GYRO_CONFIG, GyroRange, PWR_MGMT_1,
     PWR_MGMT_1_SLEEP, STANDARD_GRAVITY_M_S2, TEMP_LSB_PER_C, TEMP_OFFSET_C, WHO_AM_I,
     WHO_AM_I_MPU9255,
 };
+use crate::sim::rng::SimRng;
 use embedded_hal::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
 
 /// Data registers: accel (6), temperature (2), gyro (6).
 const DATA_LEN: usize = 14;
-
-/// SplitMix64 (Steele, Lea, Flood 2014): a tiny, well-mixed deterministic generator.
-#[derive(Clone, Copy, Debug)]
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in (0, 1]: 53 random bits, never 0 (Box–Muller takes its logarithm).
-    fn next_unit(&mut self) -> f64 {
-        ((self.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Standard normal sample (Box–Muller).
-    fn next_gaussian(&mut self) -> f64 {
-        let (u1, u2) = (self.next_unit(), self.next_unit());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-}
 
 /// The simulated chip's error: an [`ErrorKind`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -94,7 +70,7 @@ pub struct SimMpu9255 {
     motion: SimMotion,
     errors: SimErrors,
     temperature_c: f64,
-    rng: SplitMix64,
+    rng: SimRng,
     writes: Vec<(u8, u8)>,
     transactions: u32,
     fail_with: Option<ErrorKind>,
@@ -114,7 +90,7 @@ impl SimMpu9255 {
             motion: SimMotion::default(),
             errors: SimErrors::default(),
             temperature_c: 25.0,
-            rng: SplitMix64(seed),
+            rng: SimRng::new(seed),
             writes: Vec::new(),
             transactions: 0,
             fail_with: None,
@@ -186,11 +162,11 @@ impl SimMpu9255 {
                 / STANDARD_GRAVITY_M_S2;
             for axis in 0..3 {
                 let accel = self.motion.accel_m_s2[axis]
-                    + self.errors.accel_noise_std_m_s2 * self.rng.next_gaussian();
+                    + self.errors.accel_noise_std_m_s2 * self.rng.standard_normal();
                 words[axis] = Self::quantise(accel, accel_lsb_per_m_s2);
                 let rate = self.motion.rate_rad_s[axis]
                     + self.errors.gyro_bias_rad_s[axis]
-                    + self.errors.gyro_noise_std_rad_s * self.rng.next_gaussian();
+                    + self.errors.gyro_noise_std_rad_s * self.rng.standard_normal();
                 words[4 + axis] = Self::quantise(rate, gyro_lsb_per_rad_s);
             }
             words[3] = Self::quantise(self.temperature_c - TEMP_OFFSET_C, TEMP_LSB_PER_C);

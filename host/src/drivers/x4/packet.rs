@@ -46,9 +46,9 @@ pub const MAX_SAMPLES_PER_PACKET: usize = u8::MAX as usize;
 /// Largest packet on the wire, bytes.
 pub const MAX_PACKET_LEN: usize = PACKET_HEADER_LEN + 2 * MAX_SAMPLES_PER_PACKET;
 /// Angle correction constant (mm), X4 development manual.
-const CORRECTION_OFFSET_MM: f64 = 21.8;
+pub const CORRECTION_OFFSET_MM: f64 = 21.8;
 /// Angle correction constant (mm), X4 development manual.
-const CORRECTION_BASE_MM: f64 = 155.3;
+pub const CORRECTION_BASE_MM: f64 = 155.3;
 /// Largest distance a sample can carry, mm (a 16-bit quarter-millimetre count).
 pub const MAX_DISTANCE_MM: f64 = u16::MAX as f64 / 4.0;
 /// Largest scan frequency CT can carry, Hz (7 bits of frequency × 10).
@@ -76,18 +76,6 @@ pub fn angle_correction_deg(distance_mm: f64) -> f64 {
             * 180.0
             / PI
     }
-}
-
-/// The distance whose angle correction is `correction_deg` (the inverse of
-/// [`angle_correction_deg`] for d > 0), mm; `None` at or beyond the far limit
-/// −atan(21.8/155.3) = −7.99°, which no finite distance reaches, or above +90°.
-pub fn distance_for_correction_mm(correction_deg: f64) -> Option<f64> {
-    if correction_deg.is_nan() || correction_deg >= 90.0 {
-        return None;
-    }
-    // tan(c) = 21.8/d − 21.8/155.3  ⇒  d = 21.8 / (tan(c) + 21.8/155.3).
-    let denominator = correction_deg.to_radians().tan() + CORRECTION_OFFSET_MM / CORRECTION_BASE_MM;
-    (denominator > 0.0).then(|| CORRECTION_OFFSET_MM / denominator)
 }
 
 /// Degrees carried by an FSA/LSA field.
@@ -341,16 +329,6 @@ mod tests {
         let limit = -(21.8_f64 / 155.3).atan().to_degrees();
         assert!((angle_correction_deg(1e9) - limit).abs() < 1e-5);
         assert!((limit + 7.9905).abs() < 1e-3);
-    }
-
-    #[test]
-    fn correction_inverse() {
-        for d in [50.0, 120.0, 155.3, 400.0, 3000.0, 12_000.0] {
-            let back = distance_for_correction_mm(angle_correction_deg(d)).unwrap();
-            assert!((back - d).abs() < 1e-6 * d, "{d} -> {back}");
-        }
-        assert_eq!(distance_for_correction_mm(-8.0), None);
-        assert_eq!(distance_for_correction_mm(f64::NAN), None);
     }
 
     #[test]
