@@ -41,6 +41,17 @@ pub fn wheel_speeds(speeds_rad_s: [f32; WHEEL_COUNT]) -> Vec<Command> {
         .collect()
 }
 
+/// Send one `G H I J` batch at `speed_rad_s` for every wheel each control period, for
+/// `periods` periods, from a fresh host link, and return the shield's signed PWMs then.
+pub fn command_all_wheels(hil: &mut crate::sim::Hil, speed_rad_s: f32, periods: u32) -> [i16; 4] {
+    let mut host = HostLink::new(true);
+    for _ in 0..periods {
+        hil.send(&host.batch(&wheel_speeds([speed_rad_s; 4])));
+        hil.run_for_ms(20);
+    }
+    crate::shield::signed_pwms(&hil.shield())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

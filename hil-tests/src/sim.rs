@@ -69,6 +69,17 @@ impl Hil {
         Self::boot().unwrap_or_else(|e| panic!("{e}"))
     }
 
+    /// [`Hil::boot_or_panic`], then run until the first telemetry batch (at most 60 ms):
+    /// the firmware is up and its control loop is running.
+    pub fn booted() -> Self {
+        let mut hil = Self::boot_or_panic();
+        assert!(
+            hil.run_until_telemetry_batches(1, 60 * CYCLES_PER_MS),
+            "no telemetry within 60 ms of boot"
+        );
+        hil
+    }
+
     /// Cycles since reset.
     pub fn cycle(&self) -> u64 {
         self.cycle

@@ -6,15 +6,6 @@
 use ratf_hil_tests::edge_rate::run_trial;
 use ratf_hil_tests::sim::{CYCLES_PER_MS, Hil};
 
-fn booted() -> Hil {
-    let mut hil = Hil::boot_or_panic();
-    assert!(
-        hil.run_until_telemetry_batches(1, 60 * CYCLES_PER_MS),
-        "no telemetry within 60 ms of boot"
-    );
-    hil
-}
-
 /// Move wheel k by `edges[k]` edges (sign = direction), one edge per wheel every
 /// `spacing_us`, then wait two control periods.
 fn drive(hil: &mut Hil, edges: [i64; 4], spacing_us: u64) {
@@ -35,7 +26,7 @@ fn drive(hil: &mut Hil, edges: [i64; 4], spacing_us: u64) {
 
 #[test]
 fn counts_are_exact_on_all_four_wheels_both_ways() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let start = hil.latest_telemetry().expect("no telemetry batch");
     assert_eq!(start.ticks, [0; 4], "ticks before any edge");
 
@@ -56,7 +47,7 @@ fn counts_are_exact_on_all_four_wheels_both_ways() {
 
 #[test]
 fn skipped_transitions_are_counted_in_q_and_not_as_ticks() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     for wheel in 0..4 {
         for _ in 0..=wheel {
             hil.run_for_us(100);

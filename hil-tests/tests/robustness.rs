@@ -7,7 +7,7 @@
 //! (The ±1 % cadence itself is `boot_telemetry`'s subject; here the load changes with the
 //! input, and the batch start moves with the tick's computation time.)
 
-use ratf_hil_tests::host_link::{HostLink, wheel_speeds};
+use ratf_hil_tests::host_link::{HostLink, command_all_wheels, wheel_speeds};
 use ratf_hil_tests::shield::signed_pwms;
 use ratf_hil_tests::sim::{CYCLES_PER_MS, Hil};
 use ratf_protocol::messages::{Command, Wheel};
@@ -15,15 +15,6 @@ use ratf_protocol::messages::{Command, Wheel};
 const PERIOD_CYCLES: u64 = 20 * CYCLES_PER_MS;
 /// Gap tolerance: an eighth of a period, far below a missing batch (20 ms).
 const STALL_TOLERANCE_CYCLES: u64 = PERIOD_CYCLES / 8;
-
-fn booted() -> Hil {
-    let mut hil = Hil::boot_or_panic();
-    assert!(
-        hil.run_until_telemetry_batches(1, 60 * CYCLES_PER_MS),
-        "no telemetry within 60 ms of boot"
-    );
-    hil
-}
 
 /// xorshift32: deterministic garbage without a dependency.
 fn garbage(len: usize, mut state: u32) -> Vec<u8> {
@@ -70,12 +61,7 @@ fn assert_cadence(hil: &Hil, from_cycle: u64, min_batches: usize) {
 
 /// Send `G` = 10 rad/s to all wheels for three periods and check every motor is driven.
 fn assert_obeys_a_g(hil: &mut Hil) {
-    let mut host = HostLink::new(true);
-    for _ in 0..3 {
-        hil.send(&host.batch(&wheel_speeds([10.0; 4])));
-        hil.run_for_ms(20);
-    }
-    let pwms = signed_pwms(&hil.shield());
+    let pwms = command_all_wheels(hil, 10.0, 3);
     assert!(
         pwms.iter().all(|&p| p > 0),
         "a valid G was not obeyed: {pwms:?}"
@@ -84,7 +70,7 @@ fn assert_obeys_a_g(hil: &mut Hil) {
 
 #[test]
 fn garbage_at_full_line_rate_neither_crashes_nor_stalls() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let from = hil.cycle();
     // 3000 bytes ≈ 280 ms of continuous line traffic.
     hil.send(&garbage(3000, 0x1234_5678));
@@ -97,7 +83,7 @@ fn garbage_at_full_line_rate_neither_crashes_nor_stalls() {
 
 #[test]
 fn truncated_frames_are_dropped_and_the_next_frame_is_obeyed() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     // Original-protocol host (no checksums): a truncated G, a truncated K, then a space
     // (a non-hex byte aborts a frame and is consumed) and a complete K.
     let mut bytes = b"G3F80K020".to_vec();
@@ -132,7 +118,7 @@ fn burst(count: usize) -> Vec<u8> {
 
 #[test]
 fn a_burst_of_10_batches_at_full_line_rate_is_received_whole() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     // 540 bytes ≈ 50 ms of continuous line traffic: 2.5 control periods.
     hil.send(&burst(10));
     hil.run_for_ms(100);
@@ -155,7 +141,7 @@ fn a_burst_of_10_batches_at_full_line_rate_is_received_whole() {
 
 #[test]
 fn a_250_ms_burst_at_full_line_rate_neither_crashes_nor_stalls() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let from = hil.cycle();
     // 50 batches: 2700 bytes ≈ 250 ms with no idle time on the line.
     hil.send(&burst(50));
@@ -175,7 +161,7 @@ fn a_250_ms_burst_at_full_line_rate_neither_crashes_nor_stalls() {
 
 #[test]
 fn a_corrupted_batch_is_not_applied_in_strict_mode() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let mut host = HostLink::new(true);
     // A first valid batch switches the firmware's receiver to strict mode.
     hil.send(&host.batch(&wheel_speeds([0.0; 4])));

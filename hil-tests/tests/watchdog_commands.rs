@@ -2,24 +2,15 @@
 //! and solenoid released 100 ms after the last `G`/`K`, telemetry still flowing, a new `G`
 //! resumes), `K` direct PWM with its slew limit, `L` solenoid, and the switch on `s`.
 
-use ratf_hil_tests::host_link::{HostLink, wheel_speeds};
+use ratf_hil_tests::host_link::{HostLink, command_all_wheels, wheel_speeds};
 use ratf_hil_tests::shield::signed_pwms;
 use ratf_hil_tests::sim::{CYCLES_PER_MS, Hil};
 use ratf_hil_tests::watchdog::measure_watchdog;
 use ratf_protocol::messages::{Command, Wheel};
 
-fn booted() -> Hil {
-    let mut hil = Hil::boot_or_panic();
-    assert!(
-        hil.run_until_telemetry_batches(1, 60 * CYCLES_PER_MS),
-        "no telemetry within 60 ms of boot"
-    );
-    hil
-}
-
 #[test]
 fn watchdog_stops_motors_and_solenoid_and_telemetry_keeps_flowing() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let run = measure_watchdog(&mut hil, 300);
     println!(
         "{run:?}: trip began {:?} ms and was complete {:?} ms after the last G",
@@ -49,12 +40,7 @@ fn watchdog_stops_motors_and_solenoid_and_telemetry_keeps_flowing() {
     );
 
     // A new G resumes control (the solenoid stays released until a new L).
-    let mut host = HostLink::new(true);
-    for _ in 0..3 {
-        hil.send(&host.batch(&wheel_speeds([10.0; 4])));
-        hil.run_for_ms(20);
-    }
-    let pwms = signed_pwms(&hil.shield());
+    let pwms = command_all_wheels(&mut hil, 10.0, 3);
     assert!(
         pwms.iter().all(|&p| p > 0),
         "control did not resume after a new G: PWMs {pwms:?}"
@@ -64,7 +50,7 @@ fn watchdog_stops_motors_and_solenoid_and_telemetry_keeps_flowing() {
 
 #[test]
 fn k_drives_one_motor_open_loop_with_the_slew_limit() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let mut host = HostLink::new(true);
     let (first_batch, _) = hil.telemetry_batches()[0];
     // Send mid-period, then sample the shield mid-period of each following tick.
@@ -89,7 +75,7 @@ fn k_drives_one_motor_open_loop_with_the_slew_limit() {
 
 #[test]
 fn l_switches_the_solenoid() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     let mut host = HostLink::new(true);
     assert!(!hil.solenoid_on(), "solenoid on at boot");
     let mut on = wheel_speeds([0.0; 4]);
@@ -109,7 +95,7 @@ fn l_switches_the_solenoid() {
 
 #[test]
 fn switch_level_is_reported_on_s() {
-    let mut hil = booted();
+    let mut hil = Hil::booted();
     assert!(
         !hil.latest_telemetry()
             .expect("no telemetry batch")

@@ -10,6 +10,7 @@ mod io;
 mod localisation;
 mod mega;
 mod motor;
+mod navigation;
 mod robot;
 mod sim;
 
@@ -22,6 +23,7 @@ pub use io::{LidarConfig, LinkConfig, RefereeConfig};
 pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
 pub use motor::{MotorConfig, TractionConfig};
+pub use navigation::NavigationConfig;
 pub use robot::{ImuConfig, RobotConfig};
 pub use sim::{ClutterConfig, SimConfig};
 
@@ -49,6 +51,8 @@ pub struct Config {
     pub sim: SimConfig,
     /// The beacon localiser.
     pub localisation: LocalisationConfig,
+    /// The path follower and docking.
+    pub navigation: NavigationConfig,
 }
 
 /// Why a configuration could not be used.
@@ -145,6 +149,8 @@ impl Config {
         );
         self.localisation
             .check(&mut Checker::new("localisation", &mut issues));
+        self.navigation
+            .check(&mut Checker::new("navigation", &mut issues));
         issues
     }
 

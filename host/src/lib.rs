@@ -8,12 +8,17 @@
 //! code.
 #![forbid(unsafe_code)]
 
+pub mod competition;
 pub mod config;
+pub mod control;
 pub mod drivers;
 pub mod field;
 pub mod kinematics;
 pub mod localisation;
+pub mod mission;
 pub mod odometry;
+pub mod planning;
 pub mod plot;
+pub mod referee;
 pub mod robot;
 pub mod sim;

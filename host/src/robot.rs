@@ -7,17 +7,21 @@
 //! returns the wheel references and the solenoid level to send to the Mega, so the host never
 //! waits for the Mega to speak first (original-system.md §10.1).
 //!
-//! What it holds so far: wheel odometry, the latest sensor readings, and the motion
-//! command. The commanded body twist is turned into wheel references by the mecanum inverse
-//! kinematics, scaled down as a whole when a wheel would exceed its limit, so the direction
-//! of motion is kept. Localisation and navigation plug in here as they are built.
+//! What it holds: the pose estimation ([`Estimation`]: wheel odometry feeding a
+//! [`PoseEstimator`], the beacon EKF with gyro fusion by default), the latest sensor readings,
+//! and the motion command. The commanded body twist is turned into wheel references by the
+//! mecanum inverse kinematics, scaled down as a whole when a wheel would exceed its limit, so
+//! the direction of motion is kept. The robot's software never sees the ground truth: its
+//! pose is the estimator's.
 
 use crate::config::Config;
 use crate::drivers::imu::ImuSample;
 use crate::drivers::mega_link::WheelTelemetry;
 use crate::drivers::x4::scan::Scan;
+use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::{BodyTwist, Mecanum};
+use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
 use crate::odometry::{Odometry, OdometryStep};
 
 /// A timestamped input to the core (each carries its own time).
@@ -60,12 +64,114 @@ pub struct InputCounts {
     pub imu_samples: u64,
 }
 
+/// Which pose estimator the core runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EstimatorKind {
+    /// Ours: the beacon EKF with gyro fusion, gating, de-skew and late scans.
+    Localiser,
+    /// A faithful copy of the original 5dpo filter, for comparison.
+    Original,
+}
+
+impl EstimatorKind {
+    /// A fresh estimator of this kind believing the robot is at `pose` at `time_us`.
+    pub fn build(self, config: &Config, pose: Pose2, time_us: u64) -> Box<dyn PoseEstimator> {
+        let field = Field::competition();
+        match self {
+            EstimatorKind::Localiser => Box::new(Localiser::new(
+                &config.localisation,
+                &config.robot,
+                &field,
+                pose,
+                time_us,
+            )),
+            EstimatorKind::Original => {
+                Box::new(OriginalFilter::new(&config.robot, &field, pose, time_us))
+            }
+        }
+    }
+}
+
+/// Wheel odometry feeding a pose estimator: turns the core's [`Input`]s into the estimator's
+/// three inputs (odometry increments, gyro samples, scans).
+pub struct Estimation {
+    odometry: Odometry,
+    estimator: Box<dyn PoseEstimator>,
+}
+
+impl std::fmt::Debug for Estimation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Estimation")
+            .field("odometry", &self.odometry)
+            .field("pose", &self.estimator.pose())
+            .finish()
+    }
+}
+
+impl Estimation {
+    /// Odometry and an estimator of `kind`, both starting at `pose`.
+    pub fn new(config: &Config, kind: EstimatorKind, pose: Pose2) -> Self {
+        let mut odometry = Odometry::new(&config.robot);
+        odometry.reset(pose);
+        Self {
+            odometry,
+            estimator: kind.build(config, pose, 0),
+        }
+    }
+
+    /// Consume one input; returns the odometry step when it was a telemetry batch.
+    pub fn handle(&mut self, input: &Input) -> Option<OdometryStep> {
+        match input {
+            Input::Wheels(telemetry) => {
+                let step = self.odometry.update(telemetry.totals, telemetry.period_us);
+                if !step.is_first {
+                    self.estimator
+                        .on_odometry(telemetry.sampled_at_us, step.body_increment);
+                }
+                Some(step)
+            }
+            Input::MegaReset { .. } => {
+                self.odometry.forget_totals();
+                None
+            }
+            Input::Scan(scan) => {
+                self.estimator.on_scan(scan);
+                None
+            }
+            Input::Imu(sample) => {
+                self.estimator.on_gyro(sample);
+                None
+            }
+        }
+    }
+
+    /// The estimate.
+    pub fn pose(&self) -> Pose2 {
+        self.estimator.pose()
+    }
+
+    /// The estimator, for its covariance and health.
+    pub fn estimator(&self) -> &dyn PoseEstimator {
+        self.estimator.as_ref()
+    }
+
+    /// Dead-reckoning alone (wheel odometry from the start pose).
+    pub fn odometry_pose(&self) -> Pose2 {
+        self.odometry.pose()
+    }
+
+    /// Restart the estimator at `pose` at `time_us` (e.g. the operator placed the robot).
+    pub fn reset(&mut self, pose: Pose2, time_us: u64) {
+        self.estimator.reset(pose, time_us);
+    }
+}
+
 /// The core: see the module documentation.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Robot {
     mecanum: Mecanum,
     max_wheel_speed_rad_s: f64,
-    odometry: Odometry,
+    estimation: Estimation,
     last_odometry: Option<OdometryStep>,
     switch_pressed: bool,
     yaw_rate_rad_s: f64,
@@ -75,14 +181,18 @@ pub struct Robot {
 }
 
 impl Robot {
-    /// A core for the robot in `config`, believing it starts at `start_pose`.
+    /// A core for the robot in `config`, with our localiser, believing it starts at
+    /// `start_pose`.
     pub fn new(config: &Config, start_pose: Pose2) -> Self {
-        let mut odometry = Odometry::new(&config.robot);
-        odometry.reset(start_pose);
+        Self::with_estimator(config, EstimatorKind::Localiser, start_pose)
+    }
+
+    /// A core with the pose estimator `kind`.
+    pub fn with_estimator(config: &Config, kind: EstimatorKind, start_pose: Pose2) -> Self {
         Self {
             mecanum: Mecanum::new(&config.robot),
             max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
-            odometry,
+            estimation: Estimation::new(config, kind, start_pose),
             last_odometry: None,
             switch_pressed: false,
             yaw_rate_rad_s: 0.0,
@@ -98,18 +208,16 @@ impl Robot {
             Input::Wheels(telemetry) => {
                 self.counts.wheel_batches += 1;
                 self.switch_pressed = telemetry.switch_pressed;
-                self.last_odometry =
-                    Some(self.odometry.update(telemetry.totals, telemetry.period_us));
             }
-            Input::MegaReset { .. } => {
-                self.counts.mega_resets += 1;
-                self.odometry.forget_totals();
-            }
+            Input::MegaReset { .. } => self.counts.mega_resets += 1,
             Input::Scan(_) => self.counts.scans += 1,
             Input::Imu(sample) => {
                 self.counts.imu_samples += 1;
                 self.yaw_rate_rad_s = sample.gyro_rad_s[2];
             }
+        }
+        if let Some(step) = self.estimation.handle(input) {
+            self.last_odometry = Some(step);
         }
     }
 
@@ -135,9 +243,24 @@ impl Robot {
         }
     }
 
-    /// The pose estimate (wheel odometry, for now).
+    /// The pose estimate (the localiser's).
     pub fn pose(&self) -> Pose2 {
-        self.odometry.pose()
+        self.estimation.pose()
+    }
+
+    /// The pose estimation: odometry alone, the estimator's covariance and health.
+    pub fn estimation(&self) -> &Estimation {
+        &self.estimation
+    }
+
+    /// The estimator's health, for the HMI and the logs.
+    pub fn localisation_health(&self) -> Health {
+        self.estimation.estimator().health()
+    }
+
+    /// Restart the pose estimate at `pose` (the operator placed the robot).
+    pub fn reset_pose(&mut self, pose: Pose2, time_us: u64) {
+        self.estimation.reset(pose, time_us);
     }
 
     /// The last odometry step, if any.
@@ -175,6 +298,7 @@ mod tests {
             faults: None,
             verified: true,
             received_at_us: 0,
+            sampled_at_us: 0,
         })
     }
 
@@ -205,12 +329,17 @@ mod tests {
         let n = (0.1 * ticks_per_m).round() as i32;
         robot.handle(&telemetry([0; 4]));
         robot.handle(&telemetry([n, -n, n, -n]));
-        assert!((robot.pose().x - 0.1).abs() < 1e-3);
+        let odometry = |r: &Robot| r.estimation().odometry_pose();
+        assert!((odometry(&robot).x - 0.1).abs() < 1e-3);
         // The Mega reboots: its totals restart at 0, which must not read as a jump back.
         robot.handle(&Input::MegaReset { time_us: 0 });
         robot.handle(&telemetry([0; 4]));
         robot.handle(&telemetry([n, -n, n, -n]));
-        assert!((robot.pose().x - 0.2).abs() < 2e-3, "{:?}", robot.pose());
+        assert!(
+            (odometry(&robot).x - 0.2).abs() < 2e-3,
+            "{:?}",
+            odometry(&robot)
+        );
         assert_eq!(robot.input_counts().mega_resets, 1);
     }
 }

@@ -9,8 +9,8 @@ use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use ratf_host::config::{Config, ConfigError};
 use ratf_host::field::Field;
+use ratf_host::field::OrientedRect;
 use ratf_host::plot::FieldPlot;
-use ratf_host::sim::collision::OrientedRect;
 use ratf_host::sim::drive::{self, DriveReport, DriveTrace};
 use ratf_host::sim::scripts::Named;
 
@@ -30,6 +30,77 @@ enum Command {
     Config(ConfigArgs),
     /// Drive the simulated robot through a velocity script and measure odometry drift.
     Drive(DriveArgs),
+    /// Run a mock of the organisers' UDP server for practice (start with Enter or `start`).
+    Referee(RefereeArgs),
+    /// Benchmarks in the simulator.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum BenchCommand {
+    /// The round's trips with our follower and the original one: time, goal error,
+    /// cross-track error, collisions.
+    Navigation(NavBenchArgs),
+    /// Our localiser and the original filter side by side on a tour of the floor, with the
+    /// default noise and with faults: RMSE, largest error, NEES, divergences.
+    Localisation(LocBenchArgs),
+}
+
+#[derive(Debug, Args)]
+struct BenchArgs {
+    /// Number of simulator seeds.
+    #[arg(long, default_value_t = 10)]
+    seeds: u64,
+    /// Configuration file (defaults: the competition robot).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print one JSON object with the figures as the last line of stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
+struct LocBenchArgs {
+    #[command(flatten)]
+    bench: BenchArgs,
+}
+
+#[derive(Debug, Args)]
+struct NavBenchArgs {
+    #[command(flatten)]
+    bench: BenchArgs,
+    /// Also print every trip: time, route length, goal error.
+    #[arg(long)]
+    verbose: bool,
+}
+
+#[derive(Debug, Args)]
+struct RefereeArgs {
+    /// Round preset: 1 = BBBB, 2 = a permutation of BBGG, 3 = a permutation of RGGB.
+    #[arg(long, default_value_t = 3)]
+    round: u8,
+    /// The incoming parts instead of the preset, four letters from B, G, R, X (e.g. BGGR).
+    #[arg(long)]
+    parts: Option<String>,
+    /// Seed choosing the preset's permutation.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// UDP port to serve (defaults to the configuration's `referee.server_port`).
+    #[arg(long)]
+    port: Option<u16>,
+    /// Machine processing time, seconds.
+    #[arg(long, default_value_t = 0.0)]
+    machine_delay_s: f64,
+    /// Start the run by itself this many seconds after launch (needed without a terminal).
+    #[arg(long)]
+    start_after_s: Option<f64>,
+    /// Exit this many seconds after launch.
+    #[arg(long)]
+    exit_after_s: Option<f64>,
+    /// Configuration file (defaults: the competition robot).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -75,6 +146,9 @@ fn main() -> anyhow::Result<()> {
             println!("{}", String::from_utf8_lossy(&frame.encode()));
         }
         Command::Drive(args) => drive_command(&args)?,
+        Command::Referee(args) => referee_command(&args)?,
+        Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
+        Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
                 match Config::load(&path) {
@@ -98,6 +172,108 @@ fn main() -> anyhow::Result<()> {
                 print!("{text}");
             }
         }
+    }
+    Ok(())
+}
+
+fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
+    use ratf_host::sim::nav_bench::{self, Preset, Summary};
+    let config = load_config(args.bench.config.as_deref())?;
+    let trips = nav_bench::round_trips();
+    let mut without_shortcuts = config.clone();
+    without_shortcuts.navigation.shortcuts = !config.navigation.shortcuts;
+    let runs = [
+        ("ours", &config, Preset::Ours),
+        ("original", &config, Preset::Original),
+        (
+            if config.navigation.shortcuts {
+                "ours, no shortcuts"
+            } else {
+                "ours, shortcuts"
+            },
+            &without_shortcuts,
+            Preset::Ours,
+        ),
+    ];
+    println!(
+        "{} trips × {} seed(s) from seed {}",
+        trips.len(),
+        args.bench.seeds,
+        config.sim.seed
+    );
+    println!(
+        "{:<19} {:>6} {:>8} {:>9} {:>9} {:>12} {:>13} {:>14} {:>6} {:>9}",
+        "preset",
+        "trips",
+        "timeouts",
+        "mean s",
+        "max s",
+        "goal err m",
+        "goal err deg",
+        "cross-track m",
+        "coll",
+        "sim speed"
+    );
+    let mut summaries = Vec::new();
+    for (name, run_config, preset) in runs {
+        let started = Instant::now();
+        let results = nav_bench::run_preset(
+            run_config,
+            preset,
+            run_config.sim.seed,
+            args.bench.seeds,
+            &trips,
+        )?;
+        let wall_s = started.elapsed().as_secs_f64();
+        let s = Summary::of(&results);
+        let sim_s: f64 = results.iter().map(|r| r.time_s).sum();
+        println!(
+            "{:<19} {:>6} {:>8} {:>9.2} {:>9.2} {:>12.4} {:>13.2} {:>14.4} {:>6} {:>8.0}x",
+            name,
+            s.trips,
+            s.timeouts,
+            s.mean_trip_s,
+            s.max_trip_s,
+            s.goal_pos_err_m,
+            s.goal_heading_err_deg,
+            s.max_cross_track_m,
+            s.collisions,
+            sim_s / wall_s.max(1e-9)
+        );
+        if args.verbose {
+            for r in &results {
+                println!(
+                    "  {:?} -> {} seed {}: {:.2} s, route {:.2} m, goal err {:.4} m {:.2} deg{}",
+                    r.trip.from,
+                    r.trip.to,
+                    r.seed,
+                    r.time_s,
+                    r.route_length_m,
+                    r.goal_pos_err_m,
+                    r.goal_heading_err_deg,
+                    if r.docked_on_switch { ", switch" } else { "" }
+                );
+            }
+        }
+        for r in results.iter().filter(|r| r.collisions > 0 || r.timed_out) {
+            println!(
+                "  {:?} -> {} seed {}: {} collision(s) (first: {}), timed out: {}",
+                r.trip.from,
+                r.trip.to,
+                r.seed,
+                r.collisions,
+                r.first_collision.as_deref().unwrap_or("-"),
+                r.timed_out
+            );
+        }
+        summaries.push(s);
+    }
+    println!("goal err = largest over trips (true pose after 0.3 s at rest vs the pick pose)");
+    if args.bench.json {
+        println!(
+            "{}",
+            serde_json::json!({ "ours": summaries[0], "original": summaries[1] })
+        );
     }
     Ok(())
 }
@@ -130,7 +306,7 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
     fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
     println!(
-        "{:<13} {:>7} {:>8} {:>10} {:>10} {:>10} {:>9} {:>6} {:>6} {:>9}",
+        "{:<13} {:>7} {:>8} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9} {:>6} {:>6} {:>9}",
         "script",
         "sim s",
         "path m",
@@ -138,6 +314,8 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
         "end err °",
         "max err m",
         "max err °",
+        "loc end m",
+        "loc max m",
         "slip",
         "coll",
         "sim speed"
@@ -164,7 +342,7 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
         fs::write(&svg_path, plot_drive(&config, &report, &trace))
             .with_context(|| format!("writing {}", svg_path.display()))?;
         println!(
-            "{:<13} {:>7.1} {:>8.2} {:>10.4} {:>10.2} {:>10.4} {:>9.2} {:>6} {:>6} {:>8.0}x",
+            "{:<13} {:>7.1} {:>8.2} {:>10.4} {:>10.2} {:>10.4} {:>9.2} {:>9.4} {:>9.4} {:>6} {:>6} {:>8.0}x",
             report.script,
             report.sim_s,
             report.distance_m,
@@ -172,6 +350,8 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
             report.final_heading_err_deg,
             report.max_pos_err_m,
             report.max_heading_err_deg,
+            report.localiser_final_pos_err_m,
+            report.localiser_max_pos_err_m,
             report.slip_steps,
             report.collisions,
             report.sim_s / wall_s.max(1e-9)
@@ -188,7 +368,8 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
         reports.push((report, wall_s));
     }
     println!(
-        "wrote {} (SVG plots and JSON-lines logs); sim speed = simulated s per wall s",
+        "err: wheel odometry against ground truth; loc: the localiser (odometry + gyro + \
+         beacons); sim speed = simulated s per wall s; wrote {} (SVG plots, JSON-lines logs)",
         args.out.display()
     );
     if args.json {
@@ -233,4 +414,106 @@ fn plot_drive(config: &Config, report: &DriveReport, trace: &DriveTrace) -> Stri
         report.final_heading_err_deg,
         report.collisions
     ))
+}
+
+fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
+    use ratf_host::referee::mock::MockSettings;
+    use ratf_host::referee::practice::{Practice, PracticeOptions};
+    use ratf_host::referee::protocol::parse_letters;
+    use std::time::Duration;
+
+    let config = load_config(args.config.as_deref())?;
+    let parts = match &args.parts {
+        Some(text) => Some(
+            parse_letters(&text.trim().to_ascii_uppercase())
+                .with_context(|| format!("--parts {text:?}: expected 4 letters from B, G, R, X"))?,
+        ),
+        None => None,
+    };
+    let seconds = |name: &str, s: f64| -> anyhow::Result<Duration> {
+        Duration::try_from_secs_f64(s).with_context(|| format!("--{name} {s}: not a duration"))
+    };
+    let machine_delay = seconds("machine-delay-s", args.machine_delay_s)?;
+    let settings = MockSettings::for_round(
+        args.round,
+        args.seed,
+        parts,
+        u64::try_from(machine_delay.as_micros()).unwrap_or(u64::MAX),
+    )?;
+    let options = PracticeOptions {
+        bind: (
+            [0, 0, 0, 0],
+            args.port.unwrap_or(config.referee.server_port),
+        )
+            .into(),
+        settings,
+        start_after: args
+            .start_after_s
+            .map(|s| seconds("start-after-s", s))
+            .transpose()?,
+        exit_after: args
+            .exit_after_s
+            .map(|s| seconds("exit-after-s", s))
+            .transpose()?,
+    };
+    let practice =
+        Practice::bind(options.clone()).with_context(|| format!("binding UDP {}", options.bind))?;
+    // Operator lines from the terminal; with no stdin the reader ends at once and the
+    // channel closes, leaving only --start-after-s to start the run.
+    let (lines_tx, lines_rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lines() {
+            let Ok(line) = line else { break };
+            if lines_tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut stdout = std::io::stdout().lock();
+    practice.run(&lines_rx, &mut stdout)?;
+    Ok(())
+}
+
+fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Result<()> {
+    use ratf_host::sim::loc_bench::{self, Metrics, nees_band};
+    let config = load_config(args.config.as_deref())?;
+    let started = Instant::now();
+    let figures = loc_bench::run(&config, args.seeds, |condition, seed, ours, original| {
+        eprintln!(
+            "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
+            ours.pos_rmse_m, original.pos_rmse_m
+        );
+    })?;
+    let row = |name: &str, condition: &str, m: &Metrics| {
+        println!(
+            "{name:<9} {condition:<8} {:>10.4} {:>12.3} {:>11.4} {:>9.2} {:>11} {:>5}",
+            m.pos_rmse_m, m.heading_rmse_deg, m.max_pos_err_m, m.nees_mean, m.divergences, m.runs
+        );
+    };
+    println!(
+        "{:<9} {:<8} {:>10} {:>12} {:>11} {:>9} {:>11} {:>5}",
+        "filter",
+        "cond.",
+        "pos RMSE m",
+        "heading RMSE°",
+        "max err m",
+        "NEES",
+        "divergences",
+        "runs"
+    );
+    row("ours", "default", &figures.ours.default);
+    row("ours", "faults", &figures.ours.faults);
+    row("original", "default", &figures.original.default);
+    row("original", "faults", &figures.original.faults);
+    let (lo, hi) = nees_band(3, args.seeds as u32);
+    println!(
+        "scored after the first 2 s; divergence: > 0.05 m after 2 s; consistent NEES (3 dof, \
+         {} runs): mean within [{lo:.2}, {hi:.2}]; {:.1} s wall",
+        args.seeds,
+        started.elapsed().as_secs_f64()
+    );
+    if args.json {
+        println!("{}", serde_json::to_string(&figures)?);
+    }
+    Ok(())
 }

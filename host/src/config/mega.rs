@@ -35,6 +35,11 @@ pub struct MegaConfig {
     pub dead_zone_vd_v: f64,
     /// Close each telemetry batch with a checksum frame. true: the ratf extension.
     pub send_checksums: bool,
+    /// Delay from the firmware's control tick to its first telemetry byte, µs. 2080:
+    /// measured on the release ELF in simavr, idle and driving alike (`hil-tests`,
+    /// `target/hil-report.json`, `telemetry_latency_*_us`). The simulator's Mega waits this
+    /// long before sending, and the host subtracts it to time the odometry.
+    pub telemetry_latency_us: u32,
 }
 
 impl Default for MegaConfig {
@@ -52,6 +57,7 @@ impl Default for MegaConfig {
             dead_zone_v0_v: f64::from(d.pi.dead_zone.v0_v),
             dead_zone_vd_v: f64::from(d.pi.dead_zone.vd_v),
             send_checksums: d.send_checksums,
+            telemetry_latency_us: 2_080,
         }
     }
 }

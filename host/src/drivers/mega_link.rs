@@ -65,6 +65,11 @@ pub struct WheelTelemetry {
     pub verified: bool,
     /// Receive time of the bytes that completed the batch, µs (caller's monotonic clock).
     pub received_at_us: u64,
+    /// Estimated time the Mega sampled the encoders for this batch, µs (caller's clock): the
+    /// receive time less the batch's time on the wire (its bytes at the link's baud rate, 10
+    /// bits each) and the firmware's measured delay from its tick to the first byte
+    /// ([`MegaLinkConfig::telemetry_latency_us`]). The odometry increment ends here.
+    pub sampled_at_us: u64,
 }
 
 /// What the link reports.
@@ -114,6 +119,8 @@ pub enum EncodeError {
 #[derive(Clone, Copy, Debug, Default)]
 struct Partial {
     started: bool,
+    /// Frames received since the batch started (any letter), for its time on the wire.
+    frames: u32,
     totals: [Option<i32>; WHEEL_COUNT],
     period_us: Option<u32>,
     switch_pressed: Option<bool>,
@@ -134,7 +141,15 @@ struct Assembler {
 }
 
 impl Assembler {
-    fn frame(&mut self, frame: Frame, strict: bool, now_us: u64, out: &mut impl FnMut(MegaEvent)) {
+    fn frame(
+        &mut self,
+        frame: Frame,
+        strict: bool,
+        now_us: u64,
+        link: &MegaLinkConfig,
+        out: &mut impl FnMut(MegaEvent),
+    ) {
+        self.partial.frames += 1;
         let message = match Telemetry::from_frame(frame) {
             Ok(message) => message,
             Err(_) => {
@@ -166,7 +181,7 @@ impl Assembler {
                 self.partial.started = true;
                 self.partial.switch_pressed = Some(pressed);
                 if !strict {
-                    self.complete(false, now_us, out);
+                    self.complete(false, 0, now_us, link, out);
                 }
             }
             Telemetry::QuadratureErrors(q) => self.quadrature_errors = Some(q),
@@ -179,11 +194,22 @@ impl Assembler {
         if self.partial.started {
             self.incomplete_batches = self.incomplete_batches.wrapping_add(1);
         }
-        self.partial = Partial::default();
+        self.partial = Partial {
+            frames: 1,
+            ..Partial::default()
+        };
     }
 
-    /// The current batch is over: report it if it has every field.
-    fn complete(&mut self, verified: bool, now_us: u64, out: &mut impl FnMut(MegaEvent)) {
+    /// The current batch is over: report it if it has every field. `extra_frames`: frames
+    /// of the batch not delivered as telemetry (its checksum frame).
+    fn complete(
+        &mut self,
+        verified: bool,
+        extra_frames: u32,
+        now_us: u64,
+        link: &MegaLinkConfig,
+        out: &mut impl FnMut(MegaEvent),
+    ) {
         let partial = core::mem::take(&mut self.partial);
         if !partial.started {
             return;
@@ -210,6 +236,11 @@ impl Assembler {
         });
         self.previous_totals = Some(totals);
         self.batches = self.batches.wrapping_add(1);
+        let bytes = u64::from(partial.frames + extra_frames) * FRAME_LEN as u64;
+        let on_wire_us = bytes * 10 * 1_000_000 / u64::from(link.baud.max(1));
+        let sampled_at_us = now_us
+            .saturating_sub(on_wire_us)
+            .saturating_sub(u64::from(link.telemetry_latency_us));
         out(MegaEvent::Telemetry(WheelTelemetry {
             totals,
             deltas_ticks,
@@ -219,6 +250,7 @@ impl Assembler {
             faults: self.faults,
             verified,
             received_at_us: now_us,
+            sampled_at_us,
         }));
     }
 }
@@ -229,12 +261,19 @@ pub struct MegaLinkConfig {
     /// Close each command batch with a checksum frame `Z`. On by default (an original Mega
     /// ignores it); off sends exactly the original protocol.
     pub send_checksums: bool,
+    /// The serial line's baud rate (115 200).
+    pub baud: u32,
+    /// The firmware's delay from its control tick to the first telemetry byte, µs (see
+    /// `config::MegaConfig::telemetry_latency_us`).
+    pub telemetry_latency_us: u32,
 }
 
 impl Default for MegaLinkConfig {
     fn default() -> Self {
         Self {
             send_checksums: true,
+            baud: 115_200,
+            telemetry_latency_us: 2_080,
         }
     }
 }
@@ -242,6 +281,7 @@ impl Default for MegaLinkConfig {
 /// The host side of the Mega link: see the module documentation.
 #[derive(Clone, Debug)]
 pub struct MegaLink {
+    config: MegaLinkConfig,
     receiver: BatchReceiver<RX_BATCH_CAPACITY>,
     writer: BatchWriter,
     assembler: Assembler,
@@ -257,6 +297,7 @@ impl MegaLink {
     /// A link in compatible mode that has received nothing.
     pub fn new(config: MegaLinkConfig) -> Self {
         Self {
+            config,
             receiver: BatchReceiver::new(MCU_CHECKSUM_CHANNEL),
             writer: BatchWriter::new(HOST_CHECKSUM_CHANNEL, config.send_checksums),
             assembler: Assembler::default(),
@@ -275,6 +316,7 @@ impl MegaLink {
     /// completed batch and every reset, in order.
     pub fn feed(&mut self, bytes: &[u8], now_us: u64, mut on_event: impl FnMut(MegaEvent)) {
         let Self {
+            config,
             receiver,
             assembler,
             ..
@@ -286,10 +328,10 @@ impl MegaLink {
             let mut delivered = false;
             receiver.feed(core::slice::from_ref(byte), |frame| {
                 delivered = true;
-                assembler.frame(frame, strict, now_us, &mut on_event);
+                assembler.frame(frame, strict, now_us, config, &mut on_event);
             });
             if strict && delivered {
-                assembler.complete(true, now_us, &mut on_event);
+                assembler.complete(true, 1, now_us, config, &mut on_event);
             }
         }
     }

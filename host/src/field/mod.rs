@@ -8,6 +8,7 @@
 
 pub mod geometry;
 pub mod markers;
+pub mod oriented_rect;
 pub mod stations;
 pub mod waypoints;
 
@@ -15,6 +16,7 @@ use std::f64::consts::FRAC_PI_2;
 
 pub use geometry::{Circle, Pose2, Rect, Segment, Vec2, wrap_angle};
 pub use markers::{Beacon, FloorMarker, WallMarker};
+pub use oriented_rect::OrientedRect;
 pub use stations::{
     Machine, MachineBlock, MachineKind, Obstacle, ObstacleKind, PART_DEPTH_M, PART_HEIGHT_M,
     PART_PLATE_SIZE_M, PART_WIDTH_M, PICK_STANDOFF_M, Slot, SlotKind, Warehouse, WarehouseKind,

@@ -71,10 +71,12 @@ pub fn expected_points(centre_range_m: f64, radius_m: f64, step_rad: f64) -> f64
     2.0 * (radius_m / centre_range_m).asin() / step_rad
 }
 
-/// The clusters near each expected beacon among `points` (lidar frame, scan order),
-/// `step_rad` the angle between rays, `radius_m` the poles' radius.
+/// The clusters near each expected beacon among `points` (lidar frame, scan order) taken
+/// at `times_us` (µs, any common origin; missing times count as 0), `step_rad` the angle
+/// between rays, `radius_m` the poles' radius.
 pub fn extract(
     points: &[Vec2],
+    times_us: &[f64],
     expected: &[Expected],
     step_rad: f64,
     radius_m: f64,
@@ -84,11 +86,17 @@ pub fn extract(
         .iter()
         .map(|e| {
             let mut out = BeaconClusters::default();
-            for cluster in clusters_near(points, e, config.cluster_gap_m) {
+            for indices in clusters_near(points, e, config.cluster_gap_m) {
+                let cluster: Vec<Vec2> = indices.iter().map(|&i| points[i]).collect();
                 match judge(&cluster, step_rad, radius_m, config) {
                     Ok(estimate) => {
-                        out.candidates
-                            .push(observation(e.beacon, &estimate, cluster.len(), config))
+                        let time_sum: f64 = indices
+                            .iter()
+                            .map(|&i| times_us.get(i).copied().unwrap_or(0.0))
+                            .sum();
+                        let mut obs = observation(e.beacon, &estimate, cluster.len(), config);
+                        obs.time_us = time_sum / cluster.len() as f64;
+                        out.candidates.push(obs);
                     }
                     Err(r) => out.rejected.push(r),
                 }
@@ -98,15 +106,17 @@ pub fn extract(
         .collect()
 }
 
-/// Runs of consecutive points within the search circle, split at gaps; the scan's first
-/// and last runs are joined when they meet across the revolution's seam.
-fn clusters_near(points: &[Vec2], e: &Expected, gap_m: f64) -> Vec<Vec<Vec2>> {
-    let mut clusters: Vec<Vec<Vec2>> = Vec::new();
-    let mut current: Vec<Vec2> = Vec::new();
+/// Runs of consecutive points (as indices) within the search circle, split at gaps; the
+/// scan's first and last runs are joined when they meet across the revolution's seam.
+fn clusters_near(points: &[Vec2], e: &Expected, gap_m: f64) -> Vec<Vec<usize>> {
+    let mut clusters: Vec<Vec<usize>> = Vec::new();
+    let mut current: Vec<usize> = Vec::new();
     let mut first_starts_at_zero = false;
     for (i, &p) in points.iter().enumerate() {
         let inside = p.distance(e.centre) <= e.search_radius_m;
-        let joins = current.last().is_some_and(|&q| q.distance(p) <= gap_m);
+        let joins = current
+            .last()
+            .is_some_and(|&q| points[q].distance(p) <= gap_m);
         if (!inside || !joins) && !current.is_empty() {
             clusters.push(std::mem::take(&mut current));
         }
@@ -114,7 +124,7 @@ fn clusters_near(points: &[Vec2], e: &Expected, gap_m: f64) -> Vec<Vec<Vec2>> {
             if current.is_empty() && i == 0 {
                 first_starts_at_zero = true;
             }
-            current.push(p);
+            current.push(i);
         }
     }
     let last_open = !current.is_empty();
@@ -123,7 +133,7 @@ fn clusters_near(points: &[Vec2], e: &Expected, gap_m: f64) -> Vec<Vec<Vec2>> {
     }
     if last_open && first_starts_at_zero && clusters.len() > 1 {
         let seam_joins = match (clusters.last().and_then(|c| c.last()), clusters[0].first()) {
-            (Some(&a), Some(&b)) => a.distance(b) <= gap_m,
+            (Some(&a), Some(&b)) => points[a].distance(points[b]) <= gap_m,
             _ => false,
         };
         if seam_joins {
@@ -194,6 +204,7 @@ fn observation(
         bearing_rad: c.y.atan2(c.x),
         covariance: j * estimate.covariance * j.transpose() + floor,
         points,
+        time_us: 0.0,
     }
 }
 
@@ -359,7 +370,7 @@ mod tests {
         let mut rng = SimRng::new(5);
         let c = Vec2::new(1.0, 0.2);
         let pole = arc(c, R, 0.003, &mut rng);
-        let found = extract(&pole, &[expected_at(c)], STEP, R, &config);
+        let found = extract(&pole, &[], &[expected_at(c)], STEP, R, &config);
         assert_eq!(found[0].candidates.len(), 1, "{:?}", found[0]);
         assert!((found[0].candidates[0].range_m - c.norm()).abs() < 0.01);
         // A wall segment through the same place: too many points / too wide.
@@ -369,16 +380,16 @@ mod tests {
                 dir * (0.98 / dir.x)
             })
             .collect();
-        let found = extract(&wall, &[expected_at(c)], STEP, R, &config);
+        let found = extract(&wall, &[], &[expected_at(c)], STEP, R, &config);
         assert!(found[0].candidates.is_empty() && !found[0].rejected.is_empty());
         // A single stray point (the original would take it for the beacon).
-        let found = extract(&[c * 0.97], &[expected_at(c)], STEP, R, &config);
+        let found = extract(&[c * 0.97], &[], &[expected_at(c)], STEP, R, &config);
         assert_eq!(found[0].rejected, [Rejection::TooFewPoints]);
         // A wide (0.25 m) box face seen edge on near the beacon is too wide.
         let table: Vec<Vec2> = (0..12)
             .map(|k| c * 0.95 + Vec2::new(0.0, 0.02 * f64::from(k) - 0.1))
             .collect();
-        let found = extract(&table, &[expected_at(c)], STEP, R, &config);
+        let found = extract(&table, &[], &[expected_at(c)], STEP, R, &config);
         assert!(found[0].candidates.is_empty(), "{:?}", found[0]);
     }
 

@@ -46,11 +46,21 @@
 //! predicted beacons are checked for the shape of a 9 cm pole and their centres estimated
 //! ([`beacons`]); each becomes a range–bearing observation of the centre from the lidar
 //! origin (paper eq. 1–3 with the lidar's mount; with an identity mount it is exactly eq.
-//! 3), with the covariance of the centre fit. Per beacon the candidate with the smallest
+//! 3), with the covariance of the centre fit plus what the odometry noise between the
+//! pole's acquisition time and the reference time adds through the de-skew. Per beacon the candidate with the smallest
 //! Mahalanobis distance is taken and gated at χ²(2 dof) `gate_chi2`; sequential updates in
-//! Joseph form, each re-linearised at the updated state, angles wrapped. The inputs since
+//! Joseph form, each re-linearised at the updated state, angles wrapped, the beacons whose
+//! predicted position is best known (the nearest when the heading is uncertain) first, so
+//! that each update narrows the choice among the next beacon's candidates. The inputs since
 //! the reference time are then re-applied ([`history`]), so a scan handled late gives the
-//! same result as the same scan handled on time. When no beacon is applied for
+//! same result as the same scan handled on time.
+//!
+//! **Unmodelled slip.** A wheel slip that keeps the wheels' and the gyro's rotations in
+//! agreement (the floor passing on only part of a straight motion) is invisible to the
+//! prediction, and the beacons would then all be gated out while the error grows. So before
+//! the updates, when the median NIS of the scan's beacons (at least three) exceeds
+//! `inflate_above_median_nis`, the pose covariance is scaled up until the median is typical;
+//! a median, so a single ghost beside one beacon cannot trigger it. When no beacon is applied for
 //! `relock_after_scans` scans in a row, the pose covariance is raised back to the reset
 //! values around the current mean, so that the beacons can be found and taken again.
 //!
@@ -150,6 +160,9 @@ pub struct Health {
     /// Times the pose uncertainty was raised after [`Health::scans_without_beacons`]
     /// reached the configured limit.
     pub relocks: u64,
+    /// Scans whose beacons disagreed with the prediction as a whole (median NIS above
+    /// `inflate_above_median_nis`), so the pose covariance was scaled up (unmodelled slip).
+    pub inflations: u64,
 }
 
 impl Health {

@@ -80,17 +80,23 @@ impl Body {
     }
 
     /// Advance by `dt_s` with the wheels turning at `wheel_speeds_rad_s` (wire convention).
+    /// `grip` (0..=1) is the fraction of the wheels' motion the floor passes on to the body:
+    /// 1 normally; less during an injected slip burst (a slippery patch, a dusty floor), when
+    /// the wheels turn further than the body moves whatever the acceleration.
     pub fn step(
         &mut self,
         wheel_speeds_rad_s: [f64; 4],
         mecanum: &Mecanum,
         limits: &TractionLimits,
+        grip: f64,
         dt_s: f64,
     ) -> StepReport {
         for (angle, speed) in self.wheel_angles_rad.iter_mut().zip(wheel_speeds_rad_s) {
             *angle += speed * dt_s;
         }
-        let wanted = mecanum.forward(wheel_speeds_rad_s);
+        let wanted = mecanum
+            .forward(wheel_speeds_rad_s)
+            .scaled(grip.clamp(0.0, 1.0));
         let v = self.twist;
         // Acceleration in an inertial frame, written in robot-frame coordinates: the change
         // of the robot-frame velocity plus the centripetal term ω × v.
@@ -157,7 +163,13 @@ mod tests {
         for i in 0..2000 {
             // Ramp the wheels up over 0.5 s: at most 0.6 m/s², well inside μg.
             let ramp = (i as f64 * dt / 0.5).min(1.0);
-            let report = body.step(mecanum.inverse(target.scaled(ramp)), &mecanum, &limits, dt);
+            let report = body.step(
+                mecanum.inverse(target.scaled(ramp)),
+                &mecanum,
+                &limits,
+                1.0,
+                dt,
+            );
             assert!(!report.slipped, "slipped at step {i}");
         }
         assert!((body.twist.vx_m_s - 0.3).abs() < 1e-9);
@@ -170,13 +182,13 @@ mod tests {
         let mut body = Body::at_rest(Pose2::new(0.0, 0.0, 0.0));
         let wheels = mecanum.inverse(BodyTwist::new(0.6, 0.0, 0.0));
         let dt = 0.0005;
-        let report = body.step(wheels, &mecanum, &limits, dt);
+        let report = body.step(wheels, &mecanum, &limits, 1.0, dt);
         assert!(report.slipped);
         assert!((body.twist.vx_m_s - limits.linear_m_s2 * dt).abs() < 1e-12);
         // After enough time the body has caught up with the wheels.
         let mut t = dt;
         while t < 0.6 / limits.linear_m_s2 + 0.01 {
-            body.step(wheels, &mecanum, &limits, dt);
+            body.step(wheels, &mecanum, &limits, 1.0, dt);
             t += dt;
         }
         assert!((body.twist.vx_m_s - 0.6).abs() < 1e-9);
@@ -203,6 +215,7 @@ mod tests {
                 wheels,
                 &mecanum,
                 &limits,
+                1.0,
                 std::f64::consts::TAU / steps as f64,
             );
             assert!(!report.slipped, "0.3 m/s² centripetal is within μg");

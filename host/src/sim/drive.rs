@@ -1,11 +1,12 @@
 //! Drive the simulated robot through a velocity script and measure its odometry against the
 //! ground truth.
 //!
-//! The robot's core believes it starts where it truly does; from then on it knows only its
-//! wheel odometry. At every host tick (50 Hz) the odometry is compared with the true pose *at
-//! the Mega tick whose counts it has last integrated* (`World::tick_poses`), so the
-//! telemetry's few milliseconds in flight are not counted as drift. The run ends one second
-//! after the script's last keyframe, at rest.
+//! The robot's core believes it starts where it truly does. At every host tick (50 Hz) its
+//! dead-reckoning (wheel odometry alone) is compared with the true pose *at the Mega tick
+//! whose counts it has last integrated* (`World::tick_poses`), so the telemetry's few
+//! milliseconds in flight are not counted as drift. The localiser's estimate (odometry, gyro
+//! and beacons) is reported beside it. The run ends one second after the script's last
+//! keyframe, at rest.
 
 use serde::Serialize;
 
@@ -82,6 +83,10 @@ pub struct DriveReport {
     pub max_pos_err_m: f64,
     /// Largest heading error of the odometry during the run, degrees.
     pub max_heading_err_deg: f64,
+    /// Position error of the localiser's estimate at the end, m.
+    pub localiser_final_pos_err_m: f64,
+    /// Largest position error of the localiser's estimate during the run, m.
+    pub localiser_max_pos_err_m: f64,
     /// Simulator steps in which the wheels slipped.
     pub slip_steps: u64,
     /// Collisions with walls, dividers, beacons or parts.
@@ -126,6 +131,8 @@ pub fn run(
         final_heading_err_deg: 0.0,
         max_pos_err_m: 0.0,
         max_heading_err_deg: 0.0,
+        localiser_final_pos_err_m: 0.0,
+        localiser_max_pos_err_m: 0.0,
         slip_steps: 0,
         collisions: 0,
         min_twist_scale: 1.0,
@@ -143,17 +150,16 @@ pub fn run(
         }
         let now_us = sim.now_us();
         let truth = sim.world().body().pose;
-        let odometry = sim.robot().pose();
+        let odometry = sim.robot().estimation().odometry_pose();
         let batches = sim.robot().input_counts().wheel_batches as usize;
-        let (pos_err, heading_err) = match batches.checked_sub(1) {
-            Some(i) => match sim.world().tick_poses().get(i) {
-                Some(&at_tick) => pose_error(odometry, at_tick),
-                None => (0.0, 0.0),
-            },
-            None => (0.0, 0.0),
-        };
+        let at_tick = batches
+            .checked_sub(1)
+            .and_then(|i| sim.world().tick_poses().get(i).copied());
+        let (pos_err, heading_err) = at_tick.map_or((0.0, 0.0), |t| pose_error(odometry, t));
+        let (estimate_err, _) = at_tick.map_or((0.0, 0.0), |t| pose_error(sim.robot().pose(), t));
         report.max_pos_err_m = report.max_pos_err_m.max(pos_err);
         report.max_heading_err_deg = report.max_heading_err_deg.max(heading_err);
+        report.localiser_max_pos_err_m = report.localiser_max_pos_err_m.max(estimate_err);
         if let Some(&last) = trace.truth.last() {
             report.distance_m += last.distance(truth.position());
         }
@@ -179,7 +185,9 @@ pub fn run(
             collisions: stats.collisions,
         });
     }
-    let (final_pos, final_heading) = pose_error(sim.robot().pose(), sim.world().body().pose);
+    let truth = sim.world().body().pose;
+    let (final_pos, final_heading) = pose_error(sim.robot().estimation().odometry_pose(), truth);
+    report.localiser_final_pos_err_m = pose_error(sim.robot().pose(), truth).0;
     let stats = sim.world().stats();
     report.sim_s = sim.now_us() as f64 * 1e-6;
     report.final_pos_err_m = final_pos;

@@ -14,6 +14,7 @@ use crate::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
 use crate::drivers::x4::X4Driver;
 use crate::drivers::x4::scan::ScanConfig;
 use crate::robot::{Input, Output, Robot};
+use crate::sim::rng::SimRng;
 use crate::sim::world::{Scenario, SimImuBus, World};
 
 /// Period of the host's reference timer, µs (50 Hz, the Mega's control rate).
@@ -35,6 +36,7 @@ pub struct SimulatedRobot {
     next_host_tick_us: u64,
     next_imu_us: u64,
     last_output: Option<Output>,
+    scan_drop: Option<(f64, SimRng)>,
 }
 
 impl SimulatedRobot {
@@ -51,6 +53,8 @@ impl SimulatedRobot {
             robot: Robot::new(config, believed_start),
             mega: MegaLink::new(MegaLinkConfig {
                 send_checksums: config.mega.send_checksums,
+                baud: config.link.mega_baud,
+                telemetry_latency_us: config.mega.telemetry_latency_us,
             }),
             lidar: X4Driver::new(ScanConfig {
                 range_min_m: config.lidar.min_range_m,
@@ -61,6 +65,7 @@ impl SimulatedRobot {
             next_host_tick_us: HOST_TICK_PHASE_US,
             next_imu_us: IMU_PERIOD_US,
             last_output: None,
+            scan_drop: None,
             world,
         })
     }
@@ -90,28 +95,56 @@ impl SimulatedRobot {
         self.world.now_us()
     }
 
+    /// Fault injection: drop each completed lidar scan with probability `probability`
+    /// (drawn from the scenario's seed) before it reaches the core, as a USB hiccup would.
+    pub fn drop_scans(&mut self, probability: f64, seed: u64) {
+        self.scan_drop = Some((probability, SimRng::new(seed).fork("scan-drop")));
+    }
+
     /// Advance one world step; `control` runs before each host tick with the core and the
     /// time (µs). Returns true when a host tick happened in this step.
-    pub fn step(&mut self, mut control: impl FnMut(&mut Robot, u64)) -> Result<bool, ImuError> {
+    pub fn step(&mut self, control: impl FnMut(&mut Robot, u64)) -> Result<bool, ImuError> {
+        self.step_observed(control, |_| {})
+    }
+
+    /// [`SimulatedRobot::step`], with `observe` seeing every input the core gets, just before
+    /// it does (e.g. to feed a second estimator side by side).
+    pub fn step_observed(
+        &mut self,
+        mut control: impl FnMut(&mut Robot, u64),
+        mut observe: impl FnMut(&Input),
+    ) -> Result<bool, ImuError> {
         self.world.step();
         let now_us = self.world.now_us();
         let robot = &mut self.robot;
+        let mut deliver = |input: Input| {
+            observe(&input);
+            robot.handle(&input);
+        };
 
         let bytes = self.world.receive_from_mega();
         self.mega.feed(&bytes, now_us, |event| match event {
-            MegaEvent::Telemetry(telemetry) => robot.handle(&Input::Wheels(telemetry)),
-            MegaEvent::Reset { received_at_us } => robot.handle(&Input::MegaReset {
+            MegaEvent::Telemetry(telemetry) => deliver(Input::Wheels(telemetry)),
+            MegaEvent::Reset { received_at_us } => deliver(Input::MegaReset {
                 time_us: received_at_us,
             }),
         });
         let bytes = self.world.receive_from_lidar();
-        self.lidar
-            .feed(&bytes, now_us, |scan| robot.handle(&Input::Scan(scan)));
+        let scan_drop = &mut self.scan_drop;
+        self.lidar.feed(&bytes, now_us, |scan| {
+            let dropped = scan_drop
+                .as_mut()
+                .is_some_and(|(probability, rng)| rng.chance(*probability));
+            if !dropped {
+                deliver(Input::Scan(scan));
+            }
+        });
         if now_us >= self.next_imu_us {
             let sample = self.imu.read_sample(now_us)?;
-            robot.handle(&Input::Imu(sample));
+            deliver(Input::Imu(sample));
             self.next_imu_us += IMU_PERIOD_US;
         }
+        let robot = &mut self.robot;
 
         if now_us < self.next_host_tick_us {
             return Ok(false);
@@ -176,6 +209,38 @@ mod tests {
             (truth.x - odom.x).hypot(truth.y - odom.y) < 0.0025,
             "truth {truth:?} odometry {odom:?}"
         );
+    }
+
+    #[test]
+    fn telemetry_is_timed_at_the_megas_tick() {
+        let config = Config::default();
+        let scenario = Scenario::new(&config);
+        let mut sim = SimulatedRobot::new(&config, &scenario, scenario.start_pose).unwrap();
+        let mut sampled = Vec::new();
+        while sim.now_us() < 500_000 {
+            sim.step_observed(
+                |_, _| {},
+                |input| {
+                    if let Input::Wheels(t) = input {
+                        sampled.push((t.sampled_at_us, t.received_at_us));
+                    }
+                },
+            )
+            .unwrap();
+        }
+        assert!(sampled.len() >= 20);
+        for (sampled_at, received_at) in sampled {
+            // The Mega ticks every 20 ms from 20 ms; the host sees bytes at 1 ms steps.
+            let tick = (sampled_at + 10_000) / 20_000 * 20_000;
+            assert!(
+                sampled_at >= tick && sampled_at - tick < 1_000,
+                "sampled at {sampled_at} µs, tick {tick}"
+            );
+            assert!(
+                received_at - sampled_at > 9_000,
+                "transmission and firmware latency"
+            );
+        }
     }
 
     #[test]

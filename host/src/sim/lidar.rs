@@ -7,7 +7,7 @@
 //! the real sensor. Samples are packed 40 to a packet (the X4's typical size), each
 //! revolution opening with a start-of-revolution packet, and the packet bytes go out on the
 //! 128 000 baud line when its last sample is taken. The beam is modelled with the geometry
-//! behind the X4's angle correction (see [`BEAM_OFFSET_M`]).
+//! behind the X4's angle correction (see `BEAM_OFFSET_M`).
 //!
 //! What it sees: only things that reach its scan plane (`robot.lidar_height_m`, 0.20 m by
 //! default). The beacons (0.5 m poles) do; the warehouse and machine walls (0.130 m), the

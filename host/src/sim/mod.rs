@@ -6,11 +6,12 @@
 //! So every simulation runs the host's real parsers and the Mega's real logic.
 
 pub mod body;
-pub mod collision;
 pub mod drive;
 pub mod harness;
 pub mod lidar;
+pub mod loc_bench;
 pub mod motor;
+pub mod nav_bench;
 pub mod parts;
 pub mod rng;
 pub mod scripts;

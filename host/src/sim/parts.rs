@@ -15,10 +15,10 @@
 //! input unchanged.
 
 use crate::field::Field;
+use crate::field::OrientedRect;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::stations::{MachineKind, PART_DEPTH_M, PART_WIDTH_M, Slot};
 use crate::field::waypoints::WaypointId;
-use crate::sim::collision::OrientedRect;
 use std::f64::consts::PI;
 use std::fmt;
 

@@ -13,7 +13,8 @@
 //!    ([`ratf_protocol::mcu::Mcu`]), and the solenoid follows it at once;
 //! 2. on the Mega's 20 ms tick: encoder counts since the previous tick (from the wheels'
 //!    true angles, floored to whole ticks) and the switch go in; PWMs come out and the
-//!    telemetry batch starts down the Mega → host line;
+//!    telemetry batch starts down the Mega → host line after the firmware's measured
+//!    latency (`mega.telemetry_latency_us`);
 //! 3. each motor gets PWM/255 of the battery voltage; the body moves with the traction limit;
 //! 4. the lidar takes the samples due in the step; the IMU sees the body's yaw rate;
 //! 5. the magnet and the machines act on the parts; overlaps are checked for collisions.
@@ -26,10 +27,10 @@ use ratf_protocol::mcu::{Actuation, Mcu, TickInputs};
 use crate::config::Config;
 use crate::drivers::imu::sim::{SimErrors, SimMotion, SimMpu9255};
 use crate::field::Field;
+use crate::field::OrientedRect;
 use crate::field::geometry::{Pose2, Vec2};
 use crate::kinematics::Mecanum;
 use crate::sim::body::{Body, TractionLimits};
-use crate::sim::collision::OrientedRect;
 use crate::sim::lidar::{LidarScene, SimLidar, Solid};
 use crate::sim::motor::Motor;
 use crate::sim::parts::{Gripper, PartColor, PartEvent, Shop};
@@ -151,6 +152,7 @@ pub struct World {
     collisions: Vec<Collision>,
     part_events: Vec<(u64, PartEvent)>,
     tick_poses: Vec<Pose2>,
+    grip: f64,
     stats: WorldStats,
 }
 
@@ -206,6 +208,7 @@ impl World {
             collisions: Vec::new(),
             part_events: Vec::new(),
             tick_poses: Vec::new(),
+            grip: 1.0,
             stats: WorldStats::default(),
             now_ns: 0,
             field,
@@ -265,6 +268,18 @@ impl World {
         &self.tick_poses
     }
 
+    /// Fault injection: the fraction of the wheels' motion the floor passes on to the body
+    /// from now on (1 = normal; e.g. 0.7 for a slip burst, see `Body::step`).
+    pub fn set_grip(&mut self, grip: f64) {
+        self.grip = grip.clamp(0.0, 1.0);
+    }
+
+    /// Fault injection: replace what stands around the field (what the lidar can see).
+    pub fn set_clutter(&mut self, clutter: &[Solid]) {
+        let height = self.config.robot.lidar_height_m;
+        self.scene = LidarScene::new(&self.field, clutter, height);
+    }
+
     /// The lidar, to inject faults (e.g. switch it off for a while).
     pub fn lidar_mut(&mut self) -> &mut SimLidar {
         &mut self.lidar
@@ -318,8 +333,8 @@ impl World {
         let wheel_speeds = self.motors.each_ref().map(|m| m.speed_rad_s());
         let slip = self
             .body
-            .step(wheel_speeds, &self.mecanum, &self.limits, dt_s);
-        if slip.slipped {
+            .step(wheel_speeds, &self.mecanum, &self.limits, self.grip, dt_s);
+        if slip.slipped || self.grip < 1.0 {
             self.stats.slip_steps += 1;
         }
         self.stats.max_slip_speed_m_s = self.stats.max_slip_speed_m_s.max(slip.slip_speed_m_s);
@@ -363,7 +378,10 @@ impl World {
         self.tick_poses.push(self.body.pose);
         let out = self.mcu.control_tick(mega_now_us, &inputs);
         self.actuation = out.actuation;
-        self.from_mega.send(out.telemetry.as_bytes(), self.now_ns);
+        // The firmware's measured delay from its tick to the first telemetry byte.
+        let latency_ns = u64::from(self.config.mega.telemetry_latency_us) * 1000;
+        self.from_mega
+            .send(out.telemetry.as_bytes(), self.now_ns + latency_ns);
         self.stats.mega_ticks += 1;
     }
 

@@ -1,11 +1,13 @@
-//! Overlap tests between the robot's footprint and the things on the floor.
+//! Rectangles at any orientation, and overlap tests between them: the robot's footprint (and a
+//! box it carries) against the things on the floor, for the simulator's collision detection
+//! and the planners' clearance checks.
 //!
-//! The robot (and a box it carries) is an oriented rectangle; walls, dividers, machine blocks
-//! and boxes in their slots are axis-aligned rectangles or oriented ones. Two convex polygons
+//! Walls, dividers, machine blocks and boxes in their slots are axis-aligned rectangles or
+//! oriented ones. Two convex polygons
 //! are disjoint exactly when some edge normal of one of them separates their projections (the
 //! separating axis theorem), so for two rectangles four axes suffice.
 
-use crate::field::geometry::{Pose2, Rect, Vec2};
+use super::geometry::{Pose2, Rect, Vec2};
 
 /// A rectangle at any orientation, m and rad.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,0 +1,143 @@
+//! `[navigation]`: speed, acceleration and gain limits of our path follower, docking and the
+//! free-space shortcuts (`control`, `planning::shortcuts`).
+
+use serde::{Deserialize, Serialize};
+
+use super::check::Checker;
+
+/// Limits and gains of the path follower. Defaults derived from the motor and traction
+/// models (`[robot]`, `[motor]`, `[traction]`); each doc comment gives the derivation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NavigationConfig {
+    /// Top along-track speed, m/s. 0.60: the wheel limit `robot.max_wheel_speed_rad_s`
+    /// 24.3 rad/s × 0.03 m radius = 0.73 m/s at the rim with no load; 0.60 (82 %) leaves the
+    /// Mega's wheel PI headroom to reject load; corrections beyond the limit are scaled down
+    /// with the whole twist (direction kept).
+    pub max_speed_m_s: f64,
+    /// Along-track acceleration limit, m/s². 2.0: friction allows μg = 0.7 × 9.81 =
+    /// 6.9 m/s² (`traction.friction_coefficient`), the motor (τ = 0.1 s) reaches 0.6 m/s in
+    /// a step at up to 6 m/s²; 2.0 stays a factor 3 below both, so the wheels do not slip
+    /// (the odometry stays exact) and the PI follows the ramp without saturating. (3.0 was
+    /// tried in the benchmark: a few % faster, but corner overshoot caused collisions.)
+    pub max_accel_m_s2: f64,
+    /// Deceleration limit, m/s². 2.0: as `max_accel_m_s2` (same friction and motor).
+    pub max_decel_m_s2: f64,
+    /// Yaw rate limit, rad/s. 3.5: rotation adds k·ω = 0.1725 m × 3.5 = 0.60 m/s to each
+    /// rim (k = half the wheelbase sum, `robot`), as much as the top speed; the robot turns
+    /// mostly where it moves slowly, and beyond the 0.73 m/s rim limit the body twist is
+    /// scaled down as a whole (direction kept). 2.0 was 4 % slower in the benchmark.
+    pub max_yaw_rate_rad_s: f64,
+    /// Length over which a corner's change of direction is spread, m. 0.05: tuned in the
+    /// simulator. A corner of angle φ at speed v changes the velocity by 2·v·sin(φ/2)
+    /// within about this length; keeping that within `max_accel_m_s2` gives the corner
+    /// speed v = √(a·ℓ / (2·sin(φ/2))) (0.27 m/s at 90°). 0.08 was 2 % faster in the
+    /// benchmark but overshot a corner next to a divider into a collision (the graph's rows
+    /// leave 10–20 mm).
+    pub corner_blend_m: f64,
+    /// Cross-track correction gain, 1/s: sideways speed per metre off the path. 3.0:
+    /// assumption, tuned in the simulator (the 50 Hz loop with ~40 ms of telemetry and motor
+    /// lag is stable up to about 8).
+    pub cross_track_gain_per_s: f64,
+    /// Heading gain, 1/s. 6.0: tuned in the simulator (the original's `k_w` is 4,
+    /// original-system.md §6.3; with the lag compensation 6 is 4 % faster and still does not
+    /// overshoot).
+    pub heading_gain_per_s: f64,
+    /// Lag compensation, s: the follower acts on the estimate moved on by its last command
+    /// over this time. 0.12: the motor time constant 0.1 s (`motor.time_constant_s`) plus
+    /// about one 20 ms control period of telemetry delay; without it the robot overshoots a
+    /// 90° corner by about v·τ (2–3 cm at the corner speed).
+    pub lag_compensation_s: f64,
+    /// Gain of the final position hold near the goal, 1/s. 6.0: tuned in the simulator
+    /// (3 is 5 % slower; 10 starts limit cycles around the goal).
+    pub position_gain_per_s: f64,
+    /// Arrival tolerance on the predicted stopping point, m. 0.005: half the 0.01 m goal
+    /// target, the rest is margin for the estimate's error and the coasting.
+    pub goal_tolerance_m: f64,
+    /// Arrival tolerance on heading, degrees. 1.0: half the 2° target.
+    pub goal_heading_tolerance_deg: f64,
+    /// Length of the straight, slow docking approach into a slot, m. 0.05: assumption; the
+    /// robot is square to the face over this length so the switch (±25 mm, ±15°) closes.
+    pub dock_length_m: f64,
+    /// Docking speed cap, m/s. 0.15: assumption. The braking curve and the position hold
+    /// bring the speed to ~0.05 m/s by the time the switch closes (5 mm before the pick
+    /// pose), so the robot coasts ~5 mm, well inside the 15 mm gap to the plate.
+    pub dock_speed_m_s: f64,
+    /// No rotation within this path length of the start, m. 0.10: leaving a slot, the
+    /// robot's front is then 0.1 m clear of the divider tips (the original used 0.15 m,
+    /// §6.3). The planner further restricts turning to where the swept disc is free.
+    pub rotate_after_m: f64,
+    /// The heading must reach the goal's this path length before the end, m. 0.08: more
+    /// than `dock_length_m`, so the robot enters a slot square.
+    pub align_before_m: f64,
+    /// Replace graph detours by straight lines where the footprint is free. false: it does
+    /// not pay off on this field (`ratf bench navigation`: the same mean trip time with and
+    /// without, see the benchmark's third line); the graph's rows leave too little room
+    /// for the footprint plus margin to cut many corners.
+    pub shortcuts: bool,
+    /// Extra clearance around the robot's swept footprint for shortcuts, m. 0.02:
+    /// assumption, covers the estimate's error and the cross-track error.
+    pub shortcut_margin_m: f64,
+}
+
+impl Default for NavigationConfig {
+    fn default() -> Self {
+        Self {
+            max_speed_m_s: 0.60,
+            max_accel_m_s2: 2.0,
+            max_decel_m_s2: 2.0,
+            max_yaw_rate_rad_s: 3.5,
+            corner_blend_m: 0.05,
+            cross_track_gain_per_s: 3.0,
+            heading_gain_per_s: 6.0,
+            lag_compensation_s: 0.12,
+            position_gain_per_s: 6.0,
+            goal_tolerance_m: 0.005,
+            goal_heading_tolerance_deg: 1.0,
+            dock_length_m: 0.05,
+            dock_speed_m_s: 0.15,
+            rotate_after_m: 0.10,
+            align_before_m: 0.08,
+            shortcuts: false,
+            shortcut_margin_m: 0.02,
+        }
+    }
+}
+
+impl NavigationConfig {
+    pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.positive("max_speed_m_s", self.max_speed_m_s);
+        c.positive("max_accel_m_s2", self.max_accel_m_s2);
+        c.positive("max_decel_m_s2", self.max_decel_m_s2);
+        c.positive("max_yaw_rate_rad_s", self.max_yaw_rate_rad_s);
+        c.positive("corner_blend_m", self.corner_blend_m);
+        c.positive("cross_track_gain_per_s", self.cross_track_gain_per_s);
+        c.positive("heading_gain_per_s", self.heading_gain_per_s);
+        c.non_negative("lag_compensation_s", self.lag_compensation_s);
+        c.positive("position_gain_per_s", self.position_gain_per_s);
+        c.positive("goal_tolerance_m", self.goal_tolerance_m);
+        c.within(
+            "goal_heading_tolerance_deg",
+            self.goal_heading_tolerance_deg,
+            1e-3,
+            45.0,
+        );
+        c.non_negative("dock_length_m", self.dock_length_m);
+        c.positive("dock_speed_m_s", self.dock_speed_m_s);
+        c.non_negative("rotate_after_m", self.rotate_after_m);
+        c.non_negative("align_before_m", self.align_before_m);
+        c.non_negative("shortcut_margin_m", self.shortcut_margin_m);
+        if self.dock_speed_m_s.is_finite() && self.max_speed_m_s.is_finite() {
+            c.require(
+                "dock_speed_m_s",
+                self.dock_speed_m_s <= self.max_speed_m_s,
+                || {
+                    format!(
+                        "must not exceed navigation.max_speed_m_s = {} (got {})",
+                        self.max_speed_m_s, self.dock_speed_m_s
+                    )
+                },
+            );
+        }
+    }
+}

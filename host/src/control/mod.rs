@@ -1,0 +1,9 @@
+//! Motion control: routes ([`route`]), speed and heading profiles ([`profile`]), our path
+//! follower with docking ([`follower`]) and the original 5dpo follower as a preset
+//! ([`original`]). Everything here is pure: time and the pose estimate come in as arguments,
+//! a body twist goes out.
+
+pub mod follower;
+pub mod original;
+pub mod profile;
+pub mod route;

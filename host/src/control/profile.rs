@@ -1,0 +1,232 @@
+//! Speed and heading profiles along a route: trapezoidal in the path length remaining, with
+//! slow-downs before corners (by turn angle), in the docking approach and where the heading
+//! must turn faster than the yaw-rate limit allows at full speed.
+
+use std::f64::consts::PI;
+
+use crate::config::NavigationConfig;
+use crate::control::route::Route;
+use crate::field::geometry::wrap_angle;
+
+/// Lowest cap of a turn window, m/s: enough to reach a window of zero length.
+pub const MIN_TURN_SPEED_M_S: f64 = 0.03;
+
+/// A stretch of the route with a speed cap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpeedZone {
+    /// Arc length where the cap starts, m.
+    pub from_m: f64,
+    /// Arc length where it ends, m.
+    pub to_m: f64,
+    /// The cap, m/s.
+    pub max_m_s: f64,
+}
+
+/// The heading reference along the route: the start heading held for the first
+/// `rotate_after_m`, then turned at a constant rate per metre so that the goal heading is
+/// reached `align_before_m` before the end (the base rotates while it travels).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HeadingPlan {
+    /// Arc length where the turn starts, m.
+    pub from_m: f64,
+    /// Arc length where it ends, m.
+    pub to_m: f64,
+    /// Heading before the turn, rad.
+    pub start_yaw_rad: f64,
+    /// Signed turn, rad, in (−π, π].
+    pub turn_rad: f64,
+}
+
+impl HeadingPlan {
+    /// The plan for `route`: its turn window if the planner gave one, otherwise between
+    /// `rotate_after_m` from the start and `align_before_m` from the end (on a route too
+    /// short for both, its middle third).
+    pub fn new(route: &Route, config: &NavigationConfig) -> Self {
+        let length = route.length_m();
+        let (from_m, to_m) = route.turn_window_m().unwrap_or_else(|| {
+            if length > config.rotate_after_m + config.align_before_m {
+                (config.rotate_after_m, length - config.align_before_m)
+            } else {
+                (length / 3.0, 2.0 * length / 3.0)
+            }
+        });
+        Self {
+            from_m,
+            to_m,
+            start_yaw_rad: route.start_yaw_rad(),
+            turn_rad: wrap_angle(route.goal().yaw_rad - route.start_yaw_rad()),
+        }
+    }
+
+    /// Heading reference at arc length `s_m`, rad.
+    pub fn yaw_at(&self, s_m: f64) -> f64 {
+        let span = (self.to_m - self.from_m).max(1e-9);
+        let f = ((s_m - self.from_m) / span).clamp(0.0, 1.0);
+        wrap_angle(self.start_yaw_rad + self.turn_rad * f)
+    }
+
+    /// d(heading)/ds at `s_m`, rad/m (0 outside the turn).
+    pub fn rate_rad_per_m(&self, s_m: f64) -> f64 {
+        if s_m < self.from_m || s_m > self.to_m || self.to_m - self.from_m < 1e-9 {
+            0.0
+        } else {
+            self.turn_rad / (self.to_m - self.from_m)
+        }
+    }
+}
+
+/// Speed caps along one route.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    zones: Vec<SpeedZone>,
+    max_speed_m_s: f64,
+    decel_m_s2: f64,
+}
+
+/// Speed at which a corner of `turn_rad` can be taken: the velocity changes by
+/// 2·v·sin(φ/2) over about `blend_m` of path (taking `blend_m / v` s), which must stay
+/// within `accel_m_s2`: v = √(a·ℓ / (2·sin(φ/2))).
+pub fn corner_speed_m_s(turn_rad: f64, accel_m_s2: f64, blend_m: f64) -> f64 {
+    let change = 2.0 * (turn_rad.abs().min(PI) / 2.0).sin();
+    if change < 1e-9 {
+        f64::INFINITY
+    } else {
+        (accel_m_s2 * blend_m / change).sqrt()
+    }
+}
+
+impl Profile {
+    /// The caps for `route`: corners, the heading turn, the docking approach, the stop.
+    pub fn new(route: &Route, heading: &HeadingPlan, config: &NavigationConfig) -> Self {
+        let mut zones = Vec::new();
+        let n = route.points().len();
+        for i in 1..n.saturating_sub(1) {
+            let s = route.s_at_point_m(i);
+            let v = corner_speed_m_s(
+                route.turn_angle_rad(i),
+                config.max_accel_m_s2.min(config.max_decel_m_s2),
+                config.corner_blend_m,
+            );
+            zones.push(SpeedZone {
+                from_m: s - config.corner_blend_m / 2.0,
+                to_m: s + config.corner_blend_m / 2.0,
+                max_m_s: v,
+            });
+        }
+        if heading.turn_rad.abs() > 1e-9 {
+            // Keep a fifth of the yaw-rate limit for the heading feedback. A (nearly) zero
+            // window still lets the robot creep onto it; the follower then waits for the
+            // heading (it slows down with the heading error).
+            let v = (0.8 * config.max_yaw_rate_rad_s * (heading.to_m - heading.from_m)
+                / heading.turn_rad.abs())
+            .max(MIN_TURN_SPEED_M_S);
+            zones.push(SpeedZone {
+                from_m: heading.from_m,
+                to_m: heading.to_m,
+                max_m_s: v,
+            });
+        }
+        let length = route.length_m();
+        if route.dock_length_m() > 0.0 {
+            zones.push(SpeedZone {
+                from_m: length - route.dock_length_m(),
+                to_m: length,
+                max_m_s: config.dock_speed_m_s,
+            });
+        }
+        zones.push(SpeedZone {
+            from_m: length,
+            to_m: f64::INFINITY,
+            max_m_s: 0.0,
+        });
+        Self {
+            zones,
+            max_speed_m_s: config.max_speed_m_s,
+            decel_m_s2: config.max_decel_m_s2,
+        }
+    }
+
+    /// The zones (for inspection).
+    pub fn zones(&self) -> &[SpeedZone] {
+        &self.zones
+    }
+
+    /// The highest speed allowed at arc length `s_m`: the top speed, every cap in force, and
+    /// every cap ahead reachable at the deceleration limit.
+    pub fn speed_limit_m_s(&self, s_m: f64) -> f64 {
+        self.zones
+            .iter()
+            .map(|z| {
+                if s_m > z.to_m {
+                    f64::INFINITY
+                } else if s_m >= z.from_m {
+                    z.max_m_s
+                } else {
+                    (z.max_m_s * z.max_m_s + 2.0 * self.decel_m_s2 * (z.from_m - s_m)).sqrt()
+                }
+            })
+            .fold(self.max_speed_m_s, f64::min)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::geometry::Vec2;
+    use std::f64::consts::FRAC_PI_2;
+
+    #[test]
+    fn trapezoid_corner_and_dock() {
+        let config = NavigationConfig {
+            max_accel_m_s2: 1.5,
+            max_decel_m_s2: 1.5,
+            corner_blend_m: 0.05,
+            dock_length_m: 0.08,
+            ..NavigationConfig::default()
+        };
+        let p = |x: f64, y: f64| Vec2::new(x, y);
+        let route = Route::new(
+            vec![p(0.0, 0.0), p(1.0, 0.0), p(1.0, 1.0)],
+            0.0,
+            0.0,
+            config.dock_length_m,
+        )
+        .unwrap();
+        let heading = HeadingPlan::new(&route, &config);
+        let profile = Profile::new(&route, &heading, &config);
+        assert_eq!(profile.speed_limit_m_s(0.3), config.max_speed_m_s);
+        let corner = corner_speed_m_s(FRAC_PI_2, 1.5, 0.05);
+        assert!((corner - 0.2303).abs() < 1e-3, "{corner}");
+        assert!((profile.speed_limit_m_s(1.0) - corner).abs() < 1e-12);
+        // Before the corner zone the cap rises as √(v² + 2·a·d).
+        let before = profile.speed_limit_m_s(0.9);
+        let want = (corner * corner + 2.0 * 1.5 * 0.075).sqrt();
+        assert!((before - want).abs() < 1e-12);
+        assert_eq!(profile.speed_limit_m_s(1.95), config.dock_speed_m_s);
+        assert_eq!(profile.speed_limit_m_s(2.0), 0.0);
+        assert_eq!(profile.speed_limit_m_s(2.5), 0.0);
+        // Straight on: no corner cap.
+        assert_eq!(corner_speed_m_s(0.0, 1.5, 0.05), f64::INFINITY);
+    }
+
+    #[test]
+    fn heading_turns_between_the_margins() {
+        let config = NavigationConfig {
+            rotate_after_m: 0.1,
+            align_before_m: 0.1,
+            ..NavigationConfig::default()
+        };
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0)],
+            0.0,
+            FRAC_PI_2,
+            0.0,
+        )
+        .unwrap();
+        let h = HeadingPlan::new(&route, &config);
+        assert_eq!(h.yaw_at(0.05), 0.0);
+        assert!((h.yaw_at(0.95) - FRAC_PI_2).abs() < 1e-12);
+        assert!((h.yaw_at(0.5) - FRAC_PI_2 / 2.0).abs() < 1e-12);
+        assert!(h.rate_rad_per_m(0.5) > 0.0 && h.rate_rad_per_m(0.05) == 0.0);
+    }
+}

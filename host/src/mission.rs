@@ -1,0 +1,685 @@
+//! The competition mission as an explicit state machine: go to a part, dock, pick it, carry
+//! it, drop it, and on to the next, until the planner has nothing left; then park.
+//!
+//! Pure: [`Mission::tick`] takes the time, the pose estimate and the box switch, and returns
+//! the body twist and the solenoid level for this host tick plus what happened. It drives
+//! through two small interfaces so that it can be tested on its own and wired to the real
+//! stack: a [`Navigator`] (the path follower and its docking approach) and an
+//! [`ActionSource`] (the task planner, which decides which part goes where).
+//!
+//! Every state has a timeout and a recovery, and the robot never drives blind:
+//!
+//! | state | leaves when | on timeout or failure |
+//! |---|---|---|
+//! | to pick | docked (switch closed) | back out and approach again, then skip the action |
+//! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
+//! | backing out | `back_out_m` travelled | (bounded by its own time) |
+//! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
+//! | releasing | magnet off for `release_settle_s` | — |
+//! | backing out after the drop | the switch opened | report the part as stuck |
+//!
+//! A skipped action is reported to the planner, which re-plans from what it knows.
+
+use crate::field::geometry::Pose2;
+use crate::field::waypoints::WaypointId;
+use crate::kinematics::BodyTwist;
+
+/// One pick-and-place: take the part standing at `pick`, put it at `drop` (slot waypoints).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Action {
+    /// Where the part stands (a slot's waypoint, 50–65).
+    pub pick: WaypointId,
+    /// Where it goes.
+    pub drop: WaypointId,
+}
+
+/// Decides the actions (the task planner behind an interface).
+pub trait ActionSource {
+    /// The next action, or `None` when nothing is left to do (or nothing can be done now and
+    /// waiting would not help).
+    fn next_action(&mut self, now_us: u64) -> Option<Action>;
+    /// The outcome of an action: `true` when the part was placed at its drop slot.
+    fn action_done(&mut self, action: Action, placed: bool, now_us: u64);
+}
+
+/// How a navigation goal is going.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arrival {
+    /// Still on the way.
+    Moving,
+    /// At the goal pose.
+    Arrived,
+    /// Stopped in the docking approach because the switch closed.
+    Docked,
+    /// No way to get there (no path, or the navigator gave up).
+    Failed,
+}
+
+/// Drives to slots (the path follower behind an interface).
+pub trait Navigator {
+    /// Start driving from `pose` to the slot `goal`'s pick pose. With `dock`, the last part
+    /// is the slow docking approach that ends when the switch closes.
+    fn go_to(&mut self, now_us: u64, pose: Pose2, goal: WaypointId, dock: bool);
+    /// One tick: the twist to command and how it is going.
+    fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Arrival);
+}
+
+/// The mission's timing and distances. Defaults are assumptions, each argued.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MissionConfig {
+    /// Longest drive to a slot, s. 25: the longest trip across the floor is ~3 m, ~10 s at
+    /// the original's 0.4 m/s; more than twice that means something is wrong.
+    pub drive_timeout_s: f64,
+    /// Magnet on, switch closed, before the part counts as held, s. 0.25: the Grove
+    /// electromagnet reaches its force in tens of ms; a margin for the switch to settle.
+    pub grip_settle_s: f64,
+    /// Magnet off before moving away, s. 0.25 (the same reasoning).
+    pub release_settle_s: f64,
+    /// Straight reverse after a pick or a drop, m. 0.08: the carried part (0.06 m deep) and
+    /// the gripper clear the 0.07 m dividers before the robot turns.
+    pub back_out_m: f64,
+    /// Reverse speed, m/s.
+    pub back_out_speed_m_s: f64,
+    /// Approaches per action before it is skipped.
+    pub max_attempts: u32,
+}
+
+impl Default for MissionConfig {
+    fn default() -> Self {
+        Self {
+            drive_timeout_s: 25.0,
+            grip_settle_s: 0.25,
+            release_settle_s: 0.25,
+            back_out_m: 0.08,
+            back_out_speed_m_s: 0.12,
+            max_attempts: 2,
+        }
+    }
+}
+
+/// What the mission reports.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MissionEvent {
+    /// Started an action (attempt 1, 2, …).
+    ActionStarted {
+        /// The action.
+        action: Action,
+        /// Attempt number, from 1.
+        attempt: u32,
+    },
+    /// The magnet holds the part.
+    Picked {
+        /// Where it was.
+        slot: WaypointId,
+    },
+    /// The part was released at its drop slot and the switch opened.
+    Placed {
+        /// Where it is now.
+        slot: WaypointId,
+    },
+    /// An action failed for good.
+    Skipped {
+        /// The action.
+        action: Action,
+        /// Why.
+        reason: SkipReason,
+    },
+    /// Nothing left to do: the robot parks.
+    Finished,
+}
+
+/// Why an action was given up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkipReason {
+    /// The switch never closed on the part.
+    NoContact,
+    /// The magnet did not hold the part.
+    NotHeld,
+    /// The drive timed out or had no path.
+    Unreachable,
+    /// The part stayed on the magnet after release.
+    Stuck,
+}
+
+/// The mission's state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum State {
+    /// Asking the planner.
+    Idle,
+    /// Driving to the part, docking at the end.
+    ToPick {
+        action: Action,
+        attempt: u32,
+        since_us: u64,
+    },
+    /// Magnet on, waiting for the part to be held.
+    Gripping {
+        action: Action,
+        attempt: u32,
+        since_us: u64,
+    },
+    /// Reversing out of a slot; `then` says what follows.
+    BackingOut {
+        from: Pose2,
+        then: AfterBackOut,
+        since_us: u64,
+    },
+    /// Carrying the part to its drop slot.
+    ToDrop { action: Action, since_us: u64 },
+    /// Magnet off, waiting for the part to settle.
+    Releasing { action: Action, since_us: u64 },
+    /// Nothing left: stopped.
+    Finished,
+}
+
+/// What follows a back-out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum AfterBackOut {
+    /// Carry the part to its drop slot.
+    Carry(Action),
+    /// Approach the pick slot again (attempt `n`).
+    Retry(Action, u32),
+    /// Check the switch opened, then report the placement.
+    ConfirmRelease(Action),
+}
+
+/// One tick's output.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MissionOutput {
+    /// Body twist to command.
+    pub twist: BodyTwist,
+    /// Electromagnet level.
+    pub solenoid_on: bool,
+    /// What happened this tick, in order.
+    pub events: Vec<MissionEvent>,
+}
+
+/// The mission: see the module documentation.
+#[derive(Clone, Debug)]
+pub struct Mission<N, A> {
+    config: MissionConfig,
+    navigator: N,
+    actions: A,
+    state: State,
+    solenoid_on: bool,
+}
+
+impl<N: Navigator, A: ActionSource> Mission<N, A> {
+    /// A mission about to ask `actions` for its first action.
+    pub fn new(config: MissionConfig, navigator: N, actions: A) -> Self {
+        Self {
+            config,
+            navigator,
+            actions,
+            state: State::Idle,
+            solenoid_on: false,
+        }
+    }
+
+    /// The action source, e.g. to inspect the planner's state.
+    pub fn actions(&self) -> &A {
+        &self.actions
+    }
+
+    /// True once every action is done.
+    pub fn is_finished(&self) -> bool {
+        self.state == State::Finished
+    }
+
+    /// One host tick.
+    pub fn tick(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> MissionOutput {
+        let mut events = Vec::new();
+        let twist = self.advance(now_us, pose, switch_pressed, &mut events);
+        MissionOutput {
+            twist,
+            solenoid_on: self.solenoid_on,
+            events,
+        }
+    }
+
+    fn elapsed_s(now_us: u64, since_us: u64) -> f64 {
+        now_us.saturating_sub(since_us) as f64 * 1e-6
+    }
+
+    fn begin(
+        &mut self,
+        action: Action,
+        attempt: u32,
+        now_us: u64,
+        pose: Pose2,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        events.push(MissionEvent::ActionStarted { action, attempt });
+        self.navigator.go_to(now_us, pose, action.pick, true);
+        self.state = State::ToPick {
+            action,
+            attempt,
+            since_us: now_us,
+        };
+    }
+
+    fn skip(
+        &mut self,
+        action: Action,
+        reason: SkipReason,
+        now_us: u64,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        events.push(MissionEvent::Skipped { action, reason });
+        self.actions.action_done(action, false, now_us);
+        self.state = State::Idle;
+    }
+
+    /// Retry the approach if attempts remain, else skip.
+    fn retry_or_skip(
+        &mut self,
+        action: Action,
+        attempt: u32,
+        reason: SkipReason,
+        now_us: u64,
+        pose: Pose2,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        if attempt < self.config.max_attempts {
+            self.state = State::BackingOut {
+                from: pose,
+                then: AfterBackOut::Retry(action, attempt + 1),
+                since_us: now_us,
+            };
+        } else {
+            self.skip(action, reason, now_us, events);
+        }
+    }
+
+    fn advance(
+        &mut self,
+        now_us: u64,
+        pose: Pose2,
+        switch: bool,
+        events: &mut Vec<MissionEvent>,
+    ) -> BodyTwist {
+        let stop = BodyTwist::default();
+        match self.state {
+            State::Idle => {
+                match self.actions.next_action(now_us) {
+                    Some(action) => self.begin(action, 1, now_us, pose, events),
+                    None => {
+                        events.push(MissionEvent::Finished);
+                        self.state = State::Finished;
+                    }
+                }
+                stop
+            }
+            State::Finished => stop,
+            State::ToPick {
+                action,
+                attempt,
+                since_us,
+            } => {
+                let (twist, arrival) = self.navigator.update(now_us, pose, switch);
+                let timed_out = Self::elapsed_s(now_us, since_us) > self.config.drive_timeout_s;
+                match arrival {
+                    Arrival::Docked => {
+                        self.solenoid_on = true;
+                        self.state = State::Gripping {
+                            action,
+                            attempt,
+                            since_us: now_us,
+                        };
+                        stop
+                    }
+                    Arrival::Arrived => {
+                        // At the pick pose and the switch is still open: no part there, or
+                        // the approach missed it.
+                        self.retry_or_skip(
+                            action,
+                            attempt,
+                            SkipReason::NoContact,
+                            now_us,
+                            pose,
+                            events,
+                        );
+                        stop
+                    }
+                    Arrival::Failed => {
+                        self.skip(action, SkipReason::Unreachable, now_us, events);
+                        stop
+                    }
+                    Arrival::Moving if timed_out => {
+                        self.retry_or_skip(
+                            action,
+                            attempt,
+                            SkipReason::Unreachable,
+                            now_us,
+                            pose,
+                            events,
+                        );
+                        stop
+                    }
+                    Arrival::Moving => twist,
+                }
+            }
+            State::Gripping {
+                action,
+                attempt,
+                since_us,
+            } => {
+                if Self::elapsed_s(now_us, since_us) < self.config.grip_settle_s {
+                    return stop;
+                }
+                if switch {
+                    events.push(MissionEvent::Picked { slot: action.pick });
+                    self.state = State::BackingOut {
+                        from: pose,
+                        then: AfterBackOut::Carry(action),
+                        since_us: now_us,
+                    };
+                } else {
+                    self.solenoid_on = false;
+                    self.retry_or_skip(action, attempt, SkipReason::NotHeld, now_us, pose, events);
+                }
+                stop
+            }
+            State::BackingOut {
+                from,
+                then,
+                since_us,
+            } => {
+                let travelled = from.position().distance(pose.position());
+                let limit_s = 3.0 * self.config.back_out_m / self.config.back_out_speed_m_s;
+                if travelled < self.config.back_out_m && Self::elapsed_s(now_us, since_us) < limit_s
+                {
+                    return BodyTwist::new(-self.config.back_out_speed_m_s, 0.0, 0.0);
+                }
+                match then {
+                    AfterBackOut::Carry(action) => {
+                        self.navigator.go_to(now_us, pose, action.drop, false);
+                        self.state = State::ToDrop {
+                            action,
+                            since_us: now_us,
+                        };
+                    }
+                    AfterBackOut::Retry(action, attempt) => {
+                        self.begin(action, attempt, now_us, pose, events);
+                    }
+                    AfterBackOut::ConfirmRelease(action) => {
+                        if switch {
+                            self.skip(action, SkipReason::Stuck, now_us, events);
+                        } else {
+                            events.push(MissionEvent::Placed { slot: action.drop });
+                            self.actions.action_done(action, true, now_us);
+                            self.state = State::Idle;
+                        }
+                    }
+                }
+                stop
+            }
+            State::ToDrop { action, since_us } => {
+                // Carrying, the switch is pressed by the part: the follower must arrive at the
+                // pose, not stop at the switch.
+                let (twist, arrival) = self.navigator.update(now_us, pose, false);
+                let timed_out = Self::elapsed_s(now_us, since_us) > self.config.drive_timeout_s;
+                match arrival {
+                    Arrival::Arrived | Arrival::Docked => {
+                        self.solenoid_on = false;
+                        self.state = State::Releasing {
+                            action,
+                            since_us: now_us,
+                        };
+                        stop
+                    }
+                    Arrival::Failed => {
+                        self.skip(action, SkipReason::Unreachable, now_us, events);
+                        stop
+                    }
+                    Arrival::Moving if timed_out => {
+                        self.skip(action, SkipReason::Unreachable, now_us, events);
+                        stop
+                    }
+                    Arrival::Moving => twist,
+                }
+            }
+            State::Releasing { action, since_us } => {
+                if Self::elapsed_s(now_us, since_us) >= self.config.release_settle_s {
+                    self.state = State::BackingOut {
+                        from: pose,
+                        then: AfterBackOut::ConfirmRelease(action),
+                        since_us: now_us,
+                    };
+                }
+                stop
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A navigator that arrives after a fixed number of ticks, docking only if told the part
+    /// is there.
+    #[derive(Clone, Debug, Default)]
+    struct FakeNavigator {
+        ticks_left: u32,
+        dock: bool,
+        goals: Vec<(WaypointId, bool)>,
+        unreachable: Vec<WaypointId>,
+        failing: bool,
+    }
+
+    impl Navigator for FakeNavigator {
+        fn go_to(&mut self, _now_us: u64, _pose: Pose2, goal: WaypointId, dock: bool) {
+            self.ticks_left = 5;
+            self.dock = dock;
+            self.failing = self.unreachable.contains(&goal);
+            self.goals.push((goal, dock));
+        }
+
+        fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
+            if self.failing {
+                return (BodyTwist::default(), Arrival::Failed);
+            }
+            if self.ticks_left > 0 {
+                self.ticks_left -= 1;
+                return (BodyTwist::new(0.3, 0.0, 0.0), Arrival::Moving);
+            }
+            if self.dock && switch {
+                (BodyTwist::default(), Arrival::Docked)
+            } else {
+                (BodyTwist::default(), Arrival::Arrived)
+            }
+        }
+    }
+
+    /// A fixed list of actions, recording outcomes.
+    #[derive(Clone, Debug, Default)]
+    struct Script {
+        todo: Vec<Action>,
+        outcomes: Vec<(Action, bool)>,
+    }
+
+    impl ActionSource for Script {
+        fn next_action(&mut self, _now_us: u64) -> Option<Action> {
+            if self.todo.is_empty() {
+                None
+            } else {
+                Some(self.todo.remove(0))
+            }
+        }
+
+        fn action_done(&mut self, action: Action, placed: bool, _now_us: u64) {
+            self.outcomes.push((action, placed));
+        }
+    }
+
+    const A: Action = Action {
+        pick: WaypointId(50),
+        drop: WaypointId(62),
+    };
+
+    /// Run the mission with a world model: the switch is pressed when `contact(goal, ...)`
+    /// says so; the pose moves back while backing out.
+    fn run(
+        mission: &mut Mission<FakeNavigator, Script>,
+        mut switch: impl FnMut(&State, bool) -> bool,
+        ticks: u32,
+    ) -> Vec<MissionEvent> {
+        let mut events = Vec::new();
+        let mut pose = Pose2::default();
+        for k in 0..ticks {
+            let now = u64::from(k) * 20_000;
+            let pressed = switch(&mission.state, mission.solenoid_on);
+            let out = mission.tick(now, pose, pressed);
+            pose.x += out.twist.vx_m_s * 0.02;
+            events.extend(out.events);
+        }
+        events
+    }
+
+    fn mission(todo: Vec<Action>) -> Mission<FakeNavigator, Script> {
+        Mission::new(
+            MissionConfig::default(),
+            FakeNavigator::default(),
+            Script {
+                todo,
+                outcomes: Vec::new(),
+            },
+        )
+    }
+
+    #[test]
+    fn a_pick_and_place_goes_through_every_state() {
+        let mut m = mission(vec![A]);
+        // The part presses the switch once the robot is at the pick slot, and while the
+        // magnet holds it; it stops when released.
+        let events = run(
+            &mut m,
+            |state, magnet| {
+                matches!(state, State::ToPick { .. } | State::Gripping { .. }) || magnet
+            },
+            200,
+        );
+        assert_eq!(
+            events,
+            [
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 1
+                },
+                MissionEvent::Picked { slot: A.pick },
+                MissionEvent::Placed { slot: A.drop },
+                MissionEvent::Finished,
+            ]
+        );
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
+        assert!(m.is_finished());
+    }
+
+    #[test]
+    fn a_switch_that_never_closes_is_retried_then_skipped() {
+        let mut m = mission(vec![A]);
+        let events = run(&mut m, |_, _| false, 400);
+        assert_eq!(
+            events,
+            [
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 1
+                },
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 2
+                },
+                MissionEvent::Skipped {
+                    action: A,
+                    reason: SkipReason::NoContact
+                },
+                MissionEvent::Finished,
+            ]
+        );
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+        assert!(!m.solenoid_on);
+    }
+
+    #[test]
+    fn a_part_the_magnet_does_not_hold_is_released_and_retried() {
+        let mut m = mission(vec![A]);
+        // Contact while docking, but the part falls off as soon as the magnet is on.
+        let events = run(
+            &mut m,
+            |state, _| matches!(state, State::ToPick { .. }),
+            400,
+        );
+        assert!(events.contains(&MissionEvent::Skipped {
+            action: A,
+            reason: SkipReason::NotHeld
+        }));
+        assert!(!m.solenoid_on, "the magnet is released after a failed grip");
+    }
+
+    #[test]
+    fn a_part_stuck_on_the_magnet_is_reported() {
+        let mut m = mission(vec![A]);
+        // The switch stays closed after the release: the part did not come off.
+        let events = run(
+            &mut m,
+            |state, magnet| magnet || !matches!(state, State::Idle | State::Finished),
+            300,
+        );
+        assert!(events.contains(&MissionEvent::Skipped {
+            action: A,
+            reason: SkipReason::Stuck
+        }));
+    }
+
+    #[test]
+    fn an_unreachable_slot_is_skipped_and_the_mission_goes_on() {
+        let b = Action {
+            pick: WaypointId(51),
+            drop: WaypointId(63),
+        };
+        let mut m = mission(vec![A, b]);
+        m.navigator.unreachable = vec![A.pick];
+        let events = run(
+            &mut m,
+            |state, magnet| {
+                matches!(state, State::ToPick { .. } | State::Gripping { .. }) || magnet
+            },
+            300,
+        );
+        assert_eq!(
+            events[..2],
+            [
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 1
+                },
+                MissionEvent::Skipped {
+                    action: A,
+                    reason: SkipReason::Unreachable
+                }
+            ]
+        );
+        assert!(events.contains(&MissionEvent::Placed { slot: b.drop }));
+        assert_eq!(m.actions().outcomes, [(A, false), (b, true)]);
+    }
+
+    #[test]
+    fn the_robot_never_moves_while_gripping_or_releasing() {
+        let mut m = mission(vec![A]);
+        let mut pose = Pose2::default();
+        for k in 0..200u64 {
+            let magnet = m.solenoid_on;
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || magnet;
+            let state = m.state;
+            let out = m.tick(k * 20_000, pose, pressed);
+            if matches!(state, State::Gripping { .. } | State::Releasing { .. }) {
+                assert_eq!(out.twist, BodyTwist::default(), "moved in {state:?}");
+            }
+            pose.x += out.twist.vx_m_s * 0.02;
+        }
+    }
+}

@@ -1,0 +1,262 @@
+//! Free space for the robot's footprint, and free-space shortcuts: the base is holonomic,
+//! so wherever the straight line between two path points is clear for the footprint, the
+//! points between are skipped.
+//!
+//! Two checks, both against walls and dividers (rectangles), beacon poles (circles) and
+//! standing parts (rectangles the caller passes in), with a margin:
+//! * at a fixed heading: the footprint (robot, plus the carried part in front) sampled
+//!   every [`SAMPLE_STEP_M`] along the segment at each heading the robot may hold there
+//!   (the follower turns only where the whole swept disc is free, see
+//!   `control::route`, so on the rest of a route it holds its start or its goal heading);
+//! * at any heading: the disc swept by the footprint turning on the spot (the circle of its
+//!   farthest corner), for the stretches where the follower may rotate.
+
+use crate::field::geometry::{Circle, Pose2, Rect, Vec2};
+use crate::field::{Field, OrientedRect, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M};
+
+/// Sampling step along a segment for the fixed-heading check, m. 0.005: a quarter of the
+/// thinnest obstacle (the 20 mm dividers), so no obstacle fits between two samples.
+pub const SAMPLE_STEP_M: f64 = 0.005;
+
+/// The robot's outline for clearance checks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// Body length along the robot's x, m.
+    pub length_m: f64,
+    /// Body width along the robot's y, m.
+    pub width_m: f64,
+    /// A part is held in front: its centre [`PICK_STANDOFF_M`] + [`PART_DEPTH_M`]/2 ahead of
+    /// the robot centre (where the magnet holds it at the pick pose).
+    pub carrying: bool,
+}
+
+impl Footprint {
+    /// The rectangles it covers at `pose`: the body, then the part if carried.
+    pub fn rects_at(&self, pose: Pose2, margin_m: f64) -> Vec<OrientedRect> {
+        let grow = 2.0 * margin_m;
+        let mut rects = vec![OrientedRect::new(
+            pose,
+            self.length_m + grow,
+            self.width_m + grow,
+        )];
+        if self.carrying {
+            let part = pose.compose(Pose2::new(PICK_STANDOFF_M + PART_DEPTH_M / 2.0, 0.0, 0.0));
+            rects.push(OrientedRect::new(
+                part,
+                PART_DEPTH_M + grow,
+                PART_WIDTH_M + grow,
+            ));
+        }
+        rects
+    }
+
+    /// Radius of the disc it sweeps turning on the spot, m: the body's half-diagonal
+    /// (√(0.15² + 0.15²) = 0.212 m for 30 × 30 cm), or the carried part's far corner
+    /// (√(0.225² + 0.045²) = 0.229 m) if larger.
+    pub fn sweep_radius_m(&self) -> f64 {
+        let body = (self.length_m / 2.0).hypot(self.width_m / 2.0);
+        if self.carrying {
+            body.max((PICK_STANDOFF_M + PART_DEPTH_M).hypot(PART_WIDTH_M / 2.0))
+        } else {
+            body
+        }
+    }
+}
+
+/// What the footprint must not touch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeSpace {
+    rects: Vec<Rect>,
+    circles: Vec<Circle>,
+    footprint: Footprint,
+    margin_m: f64,
+}
+
+/// True when the circle overlaps the oriented rectangle.
+fn circle_hits(rect: &OrientedRect, circle: Circle) -> bool {
+    let local = rect.pose.inverse_transform_point(circle.center);
+    let nearest = Vec2::new(
+        local.x.clamp(-rect.half_x_m, rect.half_x_m),
+        local.y.clamp(-rect.half_y_m, rect.half_y_m),
+    );
+    nearest.distance(local) < circle.radius_m
+}
+
+impl FreeSpace {
+    /// The field's walls, dividers and beacons plus `parts` (footprints of standing parts),
+    /// for `footprint` grown by `margin_m` on every side.
+    pub fn new(field: &Field, parts: &[Rect], footprint: Footprint, margin_m: f64) -> Self {
+        let mut rects: Vec<Rect> = field.obstacles().iter().map(|o| o.rect).collect();
+        rects.extend_from_slice(parts);
+        Self {
+            rects,
+            circles: field.beacons().iter().map(|b| b.circle).collect(),
+            footprint,
+            margin_m,
+        }
+    }
+
+    /// Distance from `p` to the nearest obstacle, m.
+    pub fn clearance_m(&self, p: Vec2) -> f64 {
+        let rects = self.rects.iter().map(|r| r.distance_to_point(p));
+        let circles = self
+            .circles
+            .iter()
+            .map(|c| c.center.distance(p) - c.radius_m);
+        rects.chain(circles).fold(f64::INFINITY, f64::min)
+    }
+
+    /// True when the robot can turn on the spot at `p` (its swept disc plus the margin is
+    /// clear).
+    pub fn can_turn_at(&self, p: Vec2) -> bool {
+        self.clearance_m(p) > self.footprint.sweep_radius_m() + self.margin_m
+    }
+
+    /// True when the footprint (grown by the margin) at `pose` touches nothing.
+    pub fn pose_is_free(&self, pose: Pose2) -> bool {
+        self.pose_is_free_with(pose, self.margin_m)
+    }
+
+    fn pose_is_free_with(&self, pose: Pose2, margin_m: f64) -> bool {
+        self.footprint.rects_at(pose, margin_m).iter().all(|body| {
+            self.rects.iter().all(|&r| !body.overlaps_rect(r))
+                && self.circles.iter().all(|&c| !circle_hits(body, c))
+        })
+    }
+
+    /// True when the footprint can move from `a` to `b` in a straight line holding any one
+    /// of `yaws_rad` throughout. Samples are at most [`SAMPLE_STEP_M`] apart and checked
+    /// with the footprint grown by half of that on top of the margin, so every pose between
+    /// two samples lies inside a checked one.
+    pub fn segment_is_free(&self, a: Vec2, b: Vec2, yaws_rad: &[f64]) -> bool {
+        let steps = (a.distance(b) / SAMPLE_STEP_M).ceil().max(1.0) as usize;
+        let margin_m = self.margin_m + SAMPLE_STEP_M / 2.0;
+        (0..=steps).all(|k| {
+            let p = a + (b - a) * (k as f64 / steps as f64);
+            yaws_rad
+                .iter()
+                .all(|&yaw| self.pose_is_free_with(Pose2::new(p.x, p.y, yaw), margin_m))
+        })
+    }
+
+    /// Greedy shortcutting: from each kept point, jump to the farthest later point joined by
+    /// a straight line free at every heading in `yaws_rad`; points between are dropped. The
+    /// first and last points are kept; a segment of the input is kept as it is.
+    pub fn shortcut(&self, points: &[Vec2], yaws_rad: &[f64]) -> Vec<Vec2> {
+        let Some(&first) = points.first() else {
+            return Vec::new();
+        };
+        let mut kept = vec![first];
+        let mut i = 0;
+        while i + 1 < points.len() {
+            let next = (i + 2..points.len())
+                .rev()
+                .find(|&j| self.segment_is_free(points[i], points[j], yaws_rad))
+                .unwrap_or(i + 1);
+            kept.push(points[next]);
+            i = next;
+        }
+        kept
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use std::f64::consts::FRAC_PI_2;
+
+    const BARE: Footprint = Footprint {
+        length_m: 0.30,
+        width_m: 0.30,
+        carrying: false,
+    };
+
+    fn space(footprint: Footprint, margin_m: f64) -> FreeSpace {
+        FreeSpace::new(&Field::competition(), &[], footprint, margin_m)
+    }
+
+    #[test]
+    fn sweep_radii() {
+        assert!((BARE.sweep_radius_m() - 0.2121).abs() < 1e-4);
+        let carrying = Footprint {
+            carrying: true,
+            ..BARE
+        };
+        assert!((carrying.sweep_radius_m() - 0.2294).abs() < 1e-4);
+        assert_eq!(carrying.rects_at(Pose2::default(), 0.0).len(), 2);
+    }
+
+    #[test]
+    fn a_detour_through_open_floor_is_cut_and_a_wall_is_not_crossed() {
+        let s = space(BARE, 0.02);
+        let p = |x: f64, y: f64| Vec2::new(x, y);
+        // The column left of machine block A: a dip towards it is cut.
+        let cut = s.shortcut(&[p(-0.695, 0.15), p(-0.6, 0.0), p(-0.695, -0.15)], &[0.0]);
+        assert_eq!(cut, [p(-0.695, 0.15), p(-0.695, -0.15)]);
+        // Across machine block A's wall: the detour must stay.
+        let around = [p(-0.55, 0.15), p(-0.35, 0.3), p(-0.15, 0.15)];
+        assert!(!s.segment_is_free(around[0], around[2], &[0.0]));
+        assert_eq!(s.shortcut(&around, &[0.0]).len(), 3);
+        // Turning on the spot: in the open column yes, next to a divider no.
+        assert!(s.can_turn_at(p(-0.695, 0.0)));
+        assert!(!s.can_turn_at(p(-0.545, 0.255)));
+    }
+
+    /// The shortcut path of random points, at random headings, carrying or not: every
+    /// segment that is not one of the input's keeps the footprint off every obstacle,
+    /// checked every millimetre without the margin.
+    fn check_no_crossing(
+        points: &[Vec2],
+        yaws: &[f64],
+        footprint: Footprint,
+    ) -> Result<(), TestCaseError> {
+        let field = Field::competition();
+        let s = space(footprint, 0.0);
+        let cut = s.shortcut(points, yaws);
+        for w in cut.windows(2) {
+            if points.windows(2).any(|o| o[0] == w[0] && o[1] == w[1]) {
+                continue;
+            }
+            let steps = (w[0].distance(w[1]) / 0.001).ceil().max(1.0) as usize;
+            for k in 0..=steps {
+                let at = w[0] + (w[1] - w[0]) * (k as f64 / steps as f64);
+                for &yaw in yaws {
+                    for body in footprint.rects_at(Pose2::new(at.x, at.y, yaw), 0.0) {
+                        for o in field.obstacles() {
+                            prop_assert!(
+                                !body.overlaps_rect(o.rect),
+                                "shortcut {:?} -> {:?} hits {:?} at {:?}",
+                                w[0],
+                                w[1],
+                                o,
+                                at
+                            );
+                        }
+                        for b in field.beacons() {
+                            prop_assert!(!circle_hits(&body, b.circle));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(40))]
+
+        #[test]
+        fn shortcuts_never_cross_an_obstacle(
+            coords in proptest::collection::vec((-0.8f64..0.8, -0.55f64..0.55), 2..6),
+            yaw_a in -3.2f64..3.2,
+            quarter_turns in 0i32..4,
+            carrying in proptest::bool::ANY,
+        ) {
+            let points: Vec<Vec2> = coords.iter().map(|&(x, y)| Vec2::new(x, y)).collect();
+            let yaws = [yaw_a, yaw_a + f64::from(quarter_turns) * FRAC_PI_2];
+            let footprint = Footprint { carrying, ..BARE };
+            check_no_crossing(&points, &yaws, footprint)?;
+        }
+    }
+}
