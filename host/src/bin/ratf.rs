@@ -28,6 +28,9 @@ enum Command {
     Frames,
     /// Print the default configuration or check a configuration file.
     Config(ConfigArgs),
+    /// Run a complete simulated round: the robot's whole stack, the organisers' server
+    /// mocked over UDP on loopback.
+    Sim(SimArgs),
     /// Drive the simulated robot through a velocity script and measure odometry drift.
     Drive(DriveArgs),
     /// Run a mock of the organisers' UDP server for practice (start with Enter or `start`).
@@ -104,6 +107,28 @@ struct RefereeArgs {
 }
 
 #[derive(Debug, Args)]
+struct SimArgs {
+    /// The round: 1 (BBBB), 2 (BBGG in any order), 3 (RGGB in any order).
+    #[arg(long, default_value_t = 3)]
+    round: u8,
+    /// Random seed: the part order and every noise in the simulator.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Who drives: ours, or the original's planner and follower.
+    #[arg(long, default_value = "ours")]
+    policy: String,
+    /// Machine processing time, s.
+    #[arg(long, default_value_t = 0.0)]
+    machine_delay_s: f64,
+    /// Configuration file (defaults: the competition robot).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print one JSON object with the round's figures as the last line of stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Debug, Args)]
 struct DriveArgs {
     /// The script: square, figure-eight, dash, or all.
     #[arg(long, default_value = "all")]
@@ -146,6 +171,7 @@ fn main() -> anyhow::Result<()> {
             println!("{}", String::from_utf8_lossy(&frame.encode()));
         }
         Command::Drive(args) => drive_command(&args)?,
+        Command::Sim(args) => sim_command(&args)?,
         Command::Referee(args) => referee_command(&args)?,
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
@@ -514,6 +540,69 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
     );
     if args.json {
         println!("{}", serde_json::to_string(&figures)?);
+    }
+    Ok(())
+}
+
+fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
+    use ratf_host::sim::round::{self, RoundEvent, RoundPolicy};
+    let config = load_config(args.config.as_deref())?;
+    let policy = match args.policy.as_str() {
+        "ours" => RoundPolicy::Ours,
+        "original" => RoundPolicy::Original,
+        other => anyhow::bail!("unknown policy '{other}': expected ours or original"),
+    };
+    println!(
+        "ratf sim: round {}, seed {}, policy {}, machine delay {} s",
+        args.round, args.seed, args.policy, args.machine_delay_s
+    );
+    let started = Instant::now();
+    let report = round::run(
+        &config,
+        args.round,
+        args.seed,
+        policy,
+        args.machine_delay_s,
+        |event| match event {
+            RoundEvent::PartList { t_s, letters } => {
+                println!("{t_s:7.2} s  part list {letters} (the clock starts)")
+            }
+            RoundEvent::Mission { t_s, event } => println!("{t_s:7.2} s  {event:?}"),
+            RoundEvent::Collision(c) => println!(
+                "{:7.2} s  collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
+                c.time_us as f64 * 1e-6,
+                c.with,
+                c.pose.x,
+                c.pose.y,
+                c.pose.yaw_rad.to_degrees()
+            ),
+            RoundEvent::Points {
+                t_s,
+                slot,
+                color,
+                total,
+            } => println!("{t_s:7.2} s  +1 point: {color} part at slot {slot} ({total} total)"),
+        },
+    )?;
+    let wall_s = started.elapsed().as_secs_f64();
+    println!(
+        "round {}: {} points, {} in the outgoing warehouse, {:.1} s from the part list to the \
+         last placement; {} collisions, {} actions given up; localisation RMSE {:.1} mm / \
+         {:.2}°; {:.1} s wall",
+        report.round,
+        report.points,
+        report.outgoing,
+        report.time_s,
+        report.collisions,
+        report.timeouts,
+        report.pos_rmse_m * 1000.0,
+        report.heading_rmse_deg,
+        wall_s
+    );
+    if args.json {
+        let mut value = serde_json::to_value(&report)?;
+        value["wall_s"] = serde_json::json!(wall_s);
+        println!("{value}");
     }
     Ok(())
 }

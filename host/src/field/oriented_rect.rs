@@ -65,11 +65,16 @@ impl OrientedRect {
     /// True when the two rectangles overlap with positive area. Touching edges do not count,
     /// so a robot pressing its front against a box is not a collision.
     pub fn overlaps(&self, other: &OrientedRect) -> bool {
-        const TOUCH_TOLERANCE_M: f64 = 1e-9;
+        self.penetrates(other, 1e-9)
+    }
+
+    /// True when the two rectangles overlap by more than `depth_m` along every separating
+    /// axis (the overlap's smallest extent exceeds `depth_m`).
+    pub fn penetrates(&self, other: &OrientedRect, depth_m: f64) -> bool {
         self.axes().into_iter().chain(other.axes()).all(|axis| {
             let (a_lo, a_hi) = self.projection(axis);
             let (b_lo, b_hi) = other.projection(axis);
-            a_hi > b_lo + TOUCH_TOLERANCE_M && b_hi > a_lo + TOUCH_TOLERANCE_M
+            a_hi > b_lo + depth_m && b_hi > a_lo + depth_m
         })
     }
 

@@ -14,6 +14,7 @@ pub mod motor;
 pub mod nav_bench;
 pub mod parts;
 pub mod rng;
+pub mod round;
 pub mod scripts;
 pub mod serial;
 pub mod world;

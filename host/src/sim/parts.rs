@@ -6,7 +6,8 @@
 //! to touch a box whose plate is recessed 10 mm behind the dividers (`field::PICK_STANDOFF_M`
 //! leaves 15 mm). The switch closes when a part's plate is within that reach, roughly square
 //! and centred; the magnet, when energised with the switch closed, holds the part rigidly
-//! where it is; released, the part drops where it is and stands in a slot if it lands on one.
+//! where it is; released, the part drops where it is and stands in a slot if it lands between
+//! the slot's dividers (see `SLOT_CAPTURE_*`).
 //!
 //! Machines (competition.md §2): a part dropped on a machine's input is turned after the
 //! processing delay and appears on the same row's output once that is free. Machine A turns
@@ -119,6 +120,8 @@ pub enum PartEvent {
     Picked {
         /// Index into [`Shop::parts`].
         part: usize,
+        /// The slot it stood in (`None` if it was on the floor).
+        from: Option<WaypointId>,
     },
     /// Part `part` was released and now stands in a slot.
     Placed {
@@ -126,6 +129,8 @@ pub enum PartEvent {
         part: usize,
         /// The slot's waypoint.
         slot: WaypointId,
+        /// Its colour when placed (a machine may turn it later).
+        color: PartColor,
     },
     /// Part `part` was released outside every slot.
     Dropped {
@@ -163,9 +168,16 @@ pub struct Shop {
     gripper: Gripper,
 }
 
-/// How far (m) a released part's centre may be from a slot's to stand in it, and its
-/// orientation (rad) from the slot's.
-const SLOT_CAPTURE_M: f64 = 0.025;
+/// How far across the slot (m) a released part's centre may be from the slot's and still
+/// stand between its dividers: (130 mm slot − 90 mm part) / 2 (competition.md §1.2).
+const SLOT_CAPTURE_ACROSS_M: f64 = 0.020;
+/// How far out of the slot (m) the part's centre may be and still count as in it: at least
+/// half of its 60 mm depth inside the dividers' 70 mm (70 − 30). An assumption about how a
+/// referee judges a part left short of the wall; the rules do not say.
+const SLOT_CAPTURE_OUT_M: f64 = 0.040;
+/// How far into the wall (m) the centre may be (a part pushed flush cannot go further).
+const SLOT_CAPTURE_IN_M: f64 = 0.005;
+/// Largest angle between the part's plate and the slot's, rad (20°).
 const SLOT_CAPTURE_RAD: f64 = 0.35;
 
 impl Shop {
@@ -283,10 +295,14 @@ impl Shop {
         match (self.carried(), solenoid_on) {
             (None, true) => {
                 if let Some(part) = self.switch_contact(robot) {
+                    let from = match self.parts[part].place {
+                        PartPlace::Slot(id) => Some(id),
+                        _ => None,
+                    };
                     let world = self.footprint(part, robot).pose;
                     self.parts[part].place = PartPlace::Carried(robot.relative(world));
                     self.processing.retain(|p| p.part != part);
-                    events.push(PartEvent::Picked { part });
+                    events.push(PartEvent::Picked { part, from });
                 }
             }
             (Some(part), false) => {
@@ -299,15 +315,25 @@ impl Shop {
         events
     }
 
-    fn release(&mut self, part: usize, world: Pose2, now_us: u64) -> PartEvent {
-        let capture = self.slots.iter().find(|slot| {
-            let centre_ok = slot.box_center.distance(world.position()) <= SLOT_CAPTURE_M;
+    /// The slot a part standing at `world` would be in (between its dividers, plate facing
+    /// the slot's way), if any.
+    pub fn slot_at(&self, world: Pose2) -> Option<&Slot> {
+        self.slots.iter().find(|slot| {
+            let offset = world.position() - slot.box_center;
+            let outward = offset.dot(Vec2::from_angle(slot.face_normal_rad));
+            let across = offset.cross(Vec2::from_angle(slot.face_normal_rad)).abs();
+            let centre_ok = across <= SLOT_CAPTURE_ACROSS_M
+                && (-SLOT_CAPTURE_IN_M..=SLOT_CAPTURE_OUT_M).contains(&outward);
             // A part is symmetric under a half turn only in its footprint, not its plate:
             // require the plate to face the slot's way.
             let angle_ok =
                 wrap_angle(world.yaw_rad - slot.face_normal_rad).abs() <= SLOT_CAPTURE_RAD;
             centre_ok && angle_ok
-        });
+        })
+    }
+
+    fn release(&mut self, part: usize, world: Pose2, now_us: u64) -> PartEvent {
+        let capture = self.slot_at(world);
         match capture.copied() {
             Some(slot) if self.part_in(slot.waypoint).is_none() => {
                 self.parts[part].place = PartPlace::Slot(slot.waypoint);
@@ -322,6 +348,7 @@ impl Shop {
                 PartEvent::Placed {
                     part,
                     slot: slot.waypoint,
+                    color: self.parts[part].color,
                 }
             }
             _ => {
@@ -436,7 +463,10 @@ mod tests {
         let to = field.machine(MachineKind::A, 0).unwrap().input;
         assert_eq!(
             shop.step(0, from.pick_pose, true),
-            [PartEvent::Picked { part: 0 }]
+            [PartEvent::Picked {
+                part: 0,
+                from: Some(from.waypoint)
+            }]
         );
         assert_eq!(shop.letters([50, 51, 52, 53].map(WaypointId)), "XGXB");
         // Carried to the machine with the magnet on: it follows the robot.
@@ -445,7 +475,8 @@ mod tests {
             shop.step(2_000, to.pick_pose, false),
             [PartEvent::Placed {
                 part: 0,
-                slot: to.waypoint
+                slot: to.waypoint,
+                color: PartColor::Red
             }]
         );
         assert_eq!(shop.part_in(to.waypoint), Some(0));
@@ -459,6 +490,29 @@ mod tests {
             }]
         );
         assert_eq!(shop.part_in(WaypointId(to.waypoint.0 + 1)), Some(0));
+    }
+
+    #[test]
+    fn a_part_counts_as_in_a_slot_while_it_stands_between_the_dividers() {
+        let field = Field::competition();
+        let from = *field.incoming_slot(0).unwrap();
+        let to = *field.outgoing_slot(1).unwrap();
+        // Released with the robot backed off along the slot's normal, or moved across it.
+        let outcome = |out_m: f64, across_m: f64| {
+            let mut shop = shop(&field, 0);
+            shop.step(0, from.pick_pose, true);
+            let normal = crate::field::geometry::Vec2::from_angle(to.face_normal_rad);
+            let side = normal.rotated(std::f64::consts::FRAC_PI_2);
+            let p = to.pick_pose.position() + normal * out_m + side * across_m;
+            let pose = Pose2::new(p.x, p.y, to.pick_pose.yaw_rad);
+            shop.step(10, pose, true);
+            shop.step(20, pose, false)[0]
+        };
+        assert!(matches!(outcome(0.0, 0.0), PartEvent::Placed { .. }));
+        assert!(matches!(outcome(0.035, 0.0), PartEvent::Placed { .. }));
+        assert!(matches!(outcome(0.0, 0.015), PartEvent::Placed { .. }));
+        assert!(matches!(outcome(0.05, 0.0), PartEvent::Dropped { .. }));
+        assert!(matches!(outcome(0.0, 0.03), PartEvent::Dropped { .. }));
     }
 
     #[test]

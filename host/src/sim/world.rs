@@ -391,24 +391,42 @@ impl World {
         OrientedRect::new(self.body.pose, r.footprint_length_m, r.footprint_width_m)
     }
 
+    /// Overlap (m) below which bodies are in contact rather than colliding. The simulator
+    /// has no contact physics: a part held against a wall by the magnet, or pushed by the
+    /// docking robot, sinks a fraction of a millimetre into it. 2 mm: an assumption, well
+    /// below anything a referee would see.
+    const CONTACT_TOLERANCE_M: f64 = 0.002;
+
     fn check_collisions(&mut self, now_us: u64) {
         let robot = self.footprint();
         let carried = self.shop.carried();
         let mut bodies = vec![robot];
         if let Some(part) = carried {
-            bodies.push(self.shop.footprint(part, self.body.pose));
+            // A carried part inside a slot is being picked or placed: it rests against that
+            // slot's wall and dividers by design (no contact physics holds it back), so only
+            // the robot's body counts there.
+            let footprint = self.shop.footprint(part, self.body.pose);
+            if self.shop.slot_at(footprint.pose).is_none() {
+                bodies.push(footprint);
+            }
         }
         let mut now_overlapping = Vec::new();
         for (i, wall) in self.obstacles.iter().enumerate() {
-            if bodies.iter().any(|b| b.overlaps(wall)) {
+            if bodies
+                .iter()
+                .any(|b| b.penetrates(wall, Self::CONTACT_TOLERANCE_M))
+            {
                 now_overlapping.push(Obstruction::Wall(i));
             }
         }
         for beacon in self.field.beacons() {
-            if bodies
-                .iter()
-                .any(|b| circle_overlaps(b, beacon.circle.center, beacon.circle.radius_m))
-            {
+            if bodies.iter().any(|b| {
+                circle_overlaps(
+                    b,
+                    beacon.circle.center,
+                    beacon.circle.radius_m - Self::CONTACT_TOLERANCE_M,
+                )
+            }) {
                 now_overlapping.push(Obstruction::Beacon(beacon.index));
             }
         }
@@ -417,7 +435,10 @@ impl World {
                 continue;
             }
             let rect = self.shop.footprint(part, self.body.pose);
-            if bodies.iter().any(|b| b.overlaps(&rect)) {
+            if bodies
+                .iter()
+                .any(|b| b.penetrates(&rect, Self::CONTACT_TOLERANCE_M))
+            {
                 now_overlapping.push(Obstruction::Part(part));
             }
         }
