@@ -45,6 +45,8 @@ enum BenchCommand {
     /// The round's trips with our follower and the original one: time, goal error,
     /// cross-track error, collisions.
     Navigation(NavBenchArgs),
+    /// Every round with both policies over many seeds: full-score rate, times, collisions.
+    Rounds(RoundsBenchArgs),
     /// Our localiser and the original filter side by side on a tour of the floor, with the
     /// default noise and with faults: RMSE, largest error, NEES, divergences.
     Localisation(LocBenchArgs),
@@ -61,6 +63,15 @@ struct BenchArgs {
     /// Print one JSON object with the figures as the last line of stdout.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Debug, Args)]
+struct RoundsBenchArgs {
+    #[command(flatten)]
+    bench: BenchArgs,
+    /// Machine processing time, s.
+    #[arg(long, default_value_t = 0.0)]
+    machine_delay_s: f64,
 }
 
 #[derive(Debug, Args)]
@@ -175,6 +186,7 @@ fn main() -> anyhow::Result<()> {
         Command::Referee(args) => referee_command(&args)?,
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
+        Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
                 match Config::load(&path) {
@@ -603,6 +615,45 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         let mut value = serde_json::to_value(&report)?;
         value["wall_s"] = serde_json::json!(wall_s);
         println!("{value}");
+    }
+    Ok(())
+}
+
+fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
+    use ratf_host::sim::round;
+    let config = load_config(args.bench.config.as_deref())?;
+    let started = Instant::now();
+    let rows = round::bench(&config, args.bench.seeds, args.machine_delay_s, |r| {
+        eprintln!(
+            "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
+            r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
+        );
+    })?;
+    println!(
+        "{:<6} {:<9} {:>10} {:>10} {:>10} {:>11} {:>9} {:>5}",
+        "round", "policy", "full score", "mean s", "max s", "collisions", "given up", "runs"
+    );
+    for r in &rows {
+        println!(
+            "{:<6} {:<9} {:>9.0}% {:>10.1} {:>10.1} {:>11} {:>9} {:>5}",
+            r.round,
+            format!("{:?}", r.policy).to_lowercase(),
+            r.full_score_rate * 100.0,
+            r.mean_time_s,
+            r.max_time_s,
+            r.collisions,
+            r.timeouts,
+            r.runs
+        );
+    }
+    println!(
+        "times: from the part list to the last placement, over the full-score runs; machine \
+         delay {} s; {:.1} s wall",
+        args.machine_delay_s,
+        started.elapsed().as_secs_f64()
+    );
+    if args.bench.json {
+        println!("{}", serde_json::json!({ "rounds": rows }));
     }
     Ok(())
 }

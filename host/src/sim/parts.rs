@@ -5,9 +5,10 @@
 //! on the robot's centre line and reach a little beyond its 30 × 30 cm footprint, far enough
 //! to touch a box whose plate is recessed 10 mm behind the dividers (`field::PICK_STANDOFF_M`
 //! leaves 15 mm). The switch closes when a part's plate is within that reach, roughly square
-//! and centred; the magnet, when energised with the switch closed, holds the part rigidly
-//! where it is; released, the part drops where it is and stands in a slot if it lands between
-//! the slot's dividers (see `SLOT_CAPTURE_*`).
+//! and centred; the magnet, when energised with the switch closed, pulls the plate flat
+//! against its face (where the plate is at a slot's pick pose) and holds the part rigidly;
+//! released, the part drops where it is and stands in a slot if it lands between the slot's
+//! dividers (see `SLOT_CAPTURE_*`).
 //!
 //! Machines (competition.md §2): a part dropped on a machine's input is turned after the
 //! processing delay and appears on the same row's output once that is free. Machine A turns
@@ -18,7 +19,7 @@
 use crate::field::Field;
 use crate::field::OrientedRect;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
-use crate::field::stations::{MachineKind, PART_DEPTH_M, PART_WIDTH_M, Slot};
+use crate::field::stations::{MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, Slot};
 use crate::field::waypoints::WaypointId;
 use std::f64::consts::PI;
 use std::fmt;
@@ -299,8 +300,16 @@ impl Shop {
                         PartPlace::Slot(id) => Some(id),
                         _ => None,
                     };
+                    // The magnet pulls the plate flat against its face, where the plate is
+                    // when the robot stands at a slot's pick pose; the part keeps its
+                    // sideways offset.
                     let world = self.footprint(part, robot).pose;
-                    self.parts[part].place = PartPlace::Carried(robot.relative(world));
+                    let lateral = robot.relative(world).y.clamp(
+                        -self.gripper.lateral_tolerance_m,
+                        self.gripper.lateral_tolerance_m,
+                    );
+                    let held = Pose2::new(PICK_STANDOFF_M + PART_DEPTH_M / 2.0, lateral, PI);
+                    self.parts[part].place = PartPlace::Carried(held);
                     self.processing.retain(|p| p.part != part);
                     events.push(PartEvent::Picked { part, from });
                 }

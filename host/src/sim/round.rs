@@ -320,6 +320,77 @@ pub fn run(
     })
 }
 
+/// The full score of round `round`: 4, 6 or 8 points (competition.md §2).
+pub fn full_score(round: u8) -> u32 {
+    match round {
+        1 => 4,
+        2 => 6,
+        _ => 8,
+    }
+}
+
+/// One round and policy over many seeds.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BenchRow {
+    /// Round number.
+    pub round: u8,
+    /// Policy.
+    pub policy: RoundPolicy,
+    /// Fraction of runs with full points and 4 parts in the outgoing warehouse.
+    pub full_score_rate: f64,
+    /// Mean time from the part list to the last placement over the full-score runs, s.
+    pub mean_time_s: f64,
+    /// Largest such time, s.
+    pub max_time_s: f64,
+    /// Collisions over all runs.
+    pub collisions: u32,
+    /// Actions given up over all runs.
+    pub timeouts: u32,
+    /// Runs.
+    pub runs: u32,
+}
+
+/// Every round with both policies over seeds 1..=`seeds`; `on_run` hears each report.
+pub fn bench(
+    config: &Config,
+    seeds: u64,
+    machine_delay_s: f64,
+    mut on_run: impl FnMut(&RoundReport),
+) -> Result<Vec<BenchRow>, RoundError> {
+    let mut rows = Vec::new();
+    for round in 1..=3 {
+        for policy in [RoundPolicy::Ours, RoundPolicy::Original] {
+            let mut row = BenchRow {
+                round,
+                policy,
+                full_score_rate: 0.0,
+                mean_time_s: 0.0,
+                max_time_s: 0.0,
+                collisions: 0,
+                timeouts: 0,
+                runs: 0,
+            };
+            let mut full = 0u32;
+            for seed in 1..=seeds {
+                let report = run(config, round, seed, policy, machine_delay_s, |_| {})?;
+                on_run(&report);
+                row.runs += 1;
+                row.collisions += report.collisions;
+                row.timeouts += report.timeouts;
+                if report.points == full_score(round) && report.outgoing == 4 {
+                    full += 1;
+                    row.mean_time_s += report.time_s;
+                    row.max_time_s = row.max_time_s.max(report.time_s);
+                }
+            }
+            row.full_score_rate = f64::from(full) / f64::from(row.runs.max(1));
+            row.mean_time_s /= f64::from(full.max(1));
+            rows.push(row);
+        }
+    }
+    Ok(rows)
+}
+
 /// Whether placing a `color` part at slot waypoint `slot` scores (competition.md §2).
 fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
     if (62..=65).contains(&slot) {
