@@ -137,6 +137,9 @@ struct SimArgs {
     /// Print one JSON object with the round's figures as the last line of stdout.
     #[arg(long)]
     json: bool,
+    /// Directory for the SVG plot and the JSON-lines log.
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -557,6 +560,7 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
 }
 
 fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
+    use ratf_host::sim::drive::PoseRecord;
     use ratf_host::sim::round::{self, RoundEvent, RoundPolicy};
     let config = load_config(args.config.as_deref())?;
     let policy = match args.policy.as_str() {
@@ -564,10 +568,21 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         "original" => RoundPolicy::Original,
         other => anyhow::bail!("unknown policy '{other}': expected ours or original"),
     };
+    fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating the output directory {}", args.out.display()))?;
+    let stem = format!("sim-round{}-seed{}-{}", args.round, args.seed, args.policy);
+    let log_path = args.out.join(format!("{stem}.jsonl"));
+    let mut log = BufWriter::new(
+        File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?,
+    );
     println!(
         "ratf sim: round {}, seed {}, policy {}, machine delay {} s",
         args.round, args.seed, args.policy, args.machine_delay_s
     );
+    let mut truth_path = Vec::new();
+    let mut estimate_path = Vec::new();
+    let mut collisions = Vec::new();
+    let mut write_result = Ok(());
     let started = Instant::now();
     let report = round::run(
         &config,
@@ -575,28 +590,98 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         args.seed,
         policy,
         args.machine_delay_s,
-        |event| match event {
-            RoundEvent::PartList { t_s, letters } => {
-                println!("{t_s:7.2} s  part list {letters} (the clock starts)")
+        |event| {
+            let line = match event {
+                RoundEvent::Tick {
+                    t_s,
+                    truth,
+                    estimate,
+                } => {
+                    truth_path.push(truth.position());
+                    estimate_path.push(estimate.position());
+                    serde_json::json!({
+                        "t_s": t_s,
+                        "truth": PoseRecord::from(*truth),
+                        "estimate": PoseRecord::from(*estimate),
+                    })
+                }
+                other => {
+                    let (t_s, text) = match other {
+                        RoundEvent::PartList { t_s, letters } => {
+                            (*t_s, format!("part list {letters} (the clock starts)"))
+                        }
+                        RoundEvent::Mission { t_s, event } => (*t_s, format!("{event:?}")),
+                        RoundEvent::Collision(c) => {
+                            collisions.push(*c);
+                            (
+                                c.time_us as f64 * 1e-6,
+                                format!(
+                                    "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
+                                    c.with,
+                                    c.pose.x,
+                                    c.pose.y,
+                                    c.pose.yaw_rad.to_degrees()
+                                ),
+                            )
+                        }
+                        RoundEvent::Points {
+                            t_s,
+                            slot,
+                            color,
+                            total,
+                        } => (
+                            *t_s,
+                            format!("+1 point: {color} part at slot {slot} ({total} total)"),
+                        ),
+                        RoundEvent::Tick { t_s, .. } => (*t_s, String::new()),
+                    };
+                    println!("{t_s:7.2} s  {text}");
+                    serde_json::json!({ "t_s": t_s, "event": text })
+                }
+            };
+            if write_result.is_ok() {
+                write_result = write_json_line(&mut log, &line);
             }
-            RoundEvent::Mission { t_s, event } => println!("{t_s:7.2} s  {event:?}"),
-            RoundEvent::Collision(c) => println!(
-                "{:7.2} s  collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
-                c.time_us as f64 * 1e-6,
-                c.with,
-                c.pose.x,
-                c.pose.y,
-                c.pose.yaw_rad.to_degrees()
-            ),
-            RoundEvent::Points {
-                t_s,
-                slot,
-                color,
-                total,
-            } => println!("{t_s:7.2} s  +1 point: {color} part at slot {slot} ({total} total)"),
         },
     )?;
     let wall_s = started.elapsed().as_secs_f64();
+    write_result
+        .and_then(|()| write_json_line(&mut log, &report))
+        .and_then(|()| Ok(log.flush()?))
+        .with_context(|| format!("writing {}", log_path.display()))?;
+
+    let mut plot = FieldPlot::new(&Field::competition());
+    plot.path(&truth_path, "#1f4e9c", false, "ground truth");
+    plot.path(&estimate_path, "#e07b00", true, "localiser estimate");
+    for c in &collisions {
+        plot.mark(c.pose.position(), "#d01010", &format!("{:?}", c.with));
+    }
+    for &(color, x, y) in &report.final_parts {
+        let fill = match color {
+            ratf_host::sim::parts::PartColor::Red => "#d03030",
+            ratf_host::sim::parts::PartColor::Green => "#30a040",
+            ratf_host::sim::parts::PartColor::Blue => "#3060d0",
+        };
+        plot.filled(
+            &[
+                ratf_host::field::geometry::Vec2::new(x - 0.03, y - 0.03),
+                ratf_host::field::geometry::Vec2::new(x + 0.03, y - 0.03),
+                ratf_host::field::geometry::Vec2::new(x + 0.03, y + 0.03),
+                ratf_host::field::geometry::Vec2::new(x - 0.03, y + 0.03),
+            ],
+            fill,
+        );
+    }
+    let svg_path = args.out.join(format!("{stem}.svg"));
+    fs::write(
+        &svg_path,
+        plot.finish(&format!(
+            "ratf sim round {} seed {} ({}): {} points in {:.1} s, {} collisions",
+            report.round, report.seed, args.policy, report.points, report.time_s, report.collisions
+        )),
+    )
+    .with_context(|| format!("writing {}", svg_path.display()))?;
+
     println!(
         "round {}: {} points, {} in the outgoing warehouse, {:.1} s from the part list to the \
          last placement; {} collisions, {} actions given up; localisation RMSE {:.1} mm / \
@@ -611,6 +696,7 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         report.heading_rmse_deg,
         wall_s
     );
+    println!("wrote {} and {}", svg_path.display(), log_path.display());
     if args.json {
         let mut value = serde_json::to_value(&report)?;
         value["wall_s"] = serde_json::json!(wall_s);

@@ -72,6 +72,15 @@ pub enum RoundEvent {
     },
     /// The robot (or the part it carries) ran into something.
     Collision(crate::sim::world::Collision),
+    /// A host tick (50 Hz): where the robot truly is and where it believes it is.
+    Tick {
+        /// Simulated time, s.
+        t_s: f64,
+        /// True pose.
+        truth: crate::field::geometry::Pose2,
+        /// The localiser's estimate.
+        estimate: crate::field::geometry::Pose2,
+    },
     /// A placement scored.
     Points {
         /// Simulated time, s.
@@ -88,6 +97,9 @@ pub enum RoundEvent {
 /// What a round measured.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RoundReport {
+    /// Where each part ended: (colour, world position x, y), for plots.
+    #[serde(skip)]
+    pub final_parts: Vec<(PartColor, f64, f64)>,
     /// Round number.
     pub round: u8,
     /// Seed.
@@ -198,7 +210,7 @@ pub fn run(
             server_started = true;
         }
         let mut error = None;
-        sim.step(|robot, now| {
+        let ticked = sim.step(|robot, now| {
             let t = now as f64 * 1e-6;
             match mission.as_mut() {
                 None => {
@@ -249,6 +261,13 @@ pub fn run(
         })?;
         if let Some(e) = error {
             return Err(RoundError::Setup(e));
+        }
+        if ticked {
+            on_event(&RoundEvent::Tick {
+                t_s: sim.now_us() as f64 * 1e-6,
+                truth: sim.world().body().pose,
+                estimate: sim.robot().pose(),
+            });
         }
 
         // Tell the referee what happened on the floor, and score it.
@@ -306,7 +325,15 @@ pub fn run(
         })
         .count() as u32;
     let n = samples.max(1) as f64;
+    let robot_pose = sim.world().body().pose;
+    let final_parts = (0..shop.parts().len())
+        .map(|i| {
+            let p = shop.footprint(i, robot_pose).pose;
+            (shop.parts()[i].color, p.x, p.y)
+        })
+        .collect();
     Ok(RoundReport {
+        final_parts,
         round,
         seed,
         policy,
