@@ -140,6 +140,10 @@ struct SimArgs {
     /// Directory for the SVG plot and the JSON-lines log.
     #[arg(long, value_name = "DIR", default_value = "out")]
     out: PathBuf,
+    /// The operator forces the start after this many seconds with the round's part list,
+    /// whatever the server says (practice without a server).
+    #[arg(long, value_name = "S")]
+    force_start_s: Option<f64>,
 }
 
 #[derive(Debug, Args)]
@@ -584,66 +588,64 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     let mut collisions = Vec::new();
     let mut write_result = Ok(());
     let started = Instant::now();
-    let report = round::run(
-        &config,
-        args.round,
-        args.seed,
-        policy,
-        args.machine_delay_s,
-        |event| {
-            let line = match event {
-                RoundEvent::Tick {
-                    t_s,
-                    truth,
-                    estimate,
-                } => {
-                    truth_path.push(truth.position());
-                    estimate_path.push(estimate.position());
-                    serde_json::json!({
-                        "t_s": t_s,
-                        "truth": PoseRecord::from(*truth),
-                        "estimate": PoseRecord::from(*estimate),
-                    })
-                }
-                other => {
-                    let (t_s, text) = match other {
-                        RoundEvent::PartList { t_s, letters } => {
-                            (*t_s, format!("part list {letters} (the clock starts)"))
-                        }
-                        RoundEvent::Mission { t_s, event } => (*t_s, format!("{event:?}")),
-                        RoundEvent::Collision(c) => {
-                            collisions.push(*c);
-                            (
-                                c.time_us as f64 * 1e-6,
-                                format!(
-                                    "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
-                                    c.with,
-                                    c.pose.x,
-                                    c.pose.y,
-                                    c.pose.yaw_rad.to_degrees()
-                                ),
-                            )
-                        }
-                        RoundEvent::Points {
-                            t_s,
-                            slot,
-                            color,
-                            total,
-                        } => (
-                            *t_s,
-                            format!("+1 point: {color} part at slot {slot} ({total} total)"),
-                        ),
-                        RoundEvent::Tick { t_s, .. } => (*t_s, String::new()),
-                    };
-                    println!("{t_s:7.2} s  {text}");
-                    serde_json::json!({ "t_s": t_s, "event": text })
-                }
-            };
-            if write_result.is_ok() {
-                write_result = write_json_line(&mut log, &line);
+    let options = round::RoundOptions {
+        machine_delay_s: args.machine_delay_s,
+        force_start_s: args.force_start_s,
+        ..round::RoundOptions::new(args.round, args.seed, policy)
+    };
+    let report = round::run(&config, &options, |event| {
+        let line = match event {
+            RoundEvent::Tick {
+                t_s,
+                truth,
+                estimate,
+            } => {
+                truth_path.push(truth.position());
+                estimate_path.push(estimate.position());
+                serde_json::json!({
+                    "t_s": t_s,
+                    "truth": PoseRecord::from(*truth),
+                    "estimate": PoseRecord::from(*estimate),
+                })
             }
-        },
-    )?;
+            other => {
+                let (t_s, text) = match other {
+                    RoundEvent::PartList { t_s, letters } => {
+                        (*t_s, format!("part list {letters} (the clock starts)"))
+                    }
+                    RoundEvent::Mission { t_s, event } => (*t_s, format!("{event:?}")),
+                    RoundEvent::Collision(c) => {
+                        collisions.push(*c);
+                        (
+                            c.time_us as f64 * 1e-6,
+                            format!(
+                                "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
+                                c.with,
+                                c.pose.x,
+                                c.pose.y,
+                                c.pose.yaw_rad.to_degrees()
+                            ),
+                        )
+                    }
+                    RoundEvent::Points {
+                        t_s,
+                        slot,
+                        color,
+                        total,
+                    } => (
+                        *t_s,
+                        format!("+1 point: {color} part at slot {slot} ({total} total)"),
+                    ),
+                    RoundEvent::Tick { t_s, .. } => (*t_s, String::new()),
+                };
+                println!("{t_s:7.2} s  {text}");
+                serde_json::json!({ "t_s": t_s, "event": text })
+            }
+        };
+        if write_result.is_ok() {
+            write_result = write_json_line(&mut log, &line);
+        }
+    })?;
     let wall_s = started.elapsed().as_secs_f64();
     write_result
         .and_then(|()| write_json_line(&mut log, &report))

@@ -136,15 +136,52 @@ pub enum RoundError {
     Imu(#[from] crate::drivers::imu::ImuError),
 }
 
-/// Run round `round` with `seed` and `policy`; `on_event` hears the events as they happen.
+/// How a round is run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoundOptions {
+    /// Round number (1, 2, 3).
+    pub round: u8,
+    /// Seed: the part order and all the simulator's noise.
+    pub seed: u64,
+    /// Who drives.
+    pub policy: RoundPolicy,
+    /// Machine processing time, s.
+    pub machine_delay_s: f64,
+    /// The operator forces the start at this time (s) with the round's part list, whether
+    /// or not the server has answered (competition practice without a server).
+    pub force_start_s: Option<f64>,
+    /// The server never answers (it is down or unreachable): only a forced start starts.
+    pub silent_server: bool,
+}
+
+impl RoundOptions {
+    /// Round `round` with `seed` and `policy`, no machine delay, started by the server.
+    pub fn new(round: u8, seed: u64, policy: RoundPolicy) -> Self {
+        Self {
+            round,
+            seed,
+            policy,
+            machine_delay_s: 0.0,
+            force_start_s: None,
+            silent_server: false,
+        }
+    }
+}
+
+/// Run a round; `on_event` hears the events as they happen.
 pub fn run(
     config: &Config,
-    round: u8,
-    seed: u64,
-    policy: RoundPolicy,
-    machine_delay_s: f64,
+    options: &RoundOptions,
     mut on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
+    let RoundOptions {
+        round,
+        seed,
+        policy,
+        machine_delay_s,
+        force_start_s,
+        silent_server,
+    } = *options;
     let mut config = config.clone();
     config.sim.seed = seed;
     let field = Field::competition();
@@ -221,19 +258,27 @@ pub fn run(
                             error = Some(e.to_string());
                         }
                     }
-                    if client.outstanding().is_some()
+                    if !silent_server
+                        && client.outstanding().is_some()
                         && let Err(e) = server.poll(now)
                     {
                         error = Some(e.to_string());
                     }
-                    if let Some(Ok(Reply::Slots(list))) = client.poll(now) {
+                    let from_server = match client.poll(now) {
+                        Some(Ok(Reply::Slots(list))) => Some((list, "")),
+                        _ => None,
+                    };
+                    let forced = force_start_s
+                        .filter(|&at| t >= at)
+                        .map(|_| (letters, " (forced by the operator)"));
+                    if let Some((list, how)) = from_server.or(forced) {
                         let text: String = list
                             .iter()
                             .map(|c| c.map_or('X', PartColor::letter))
                             .collect();
                         on_event(&RoundEvent::PartList {
                             t_s: t,
-                            letters: text,
+                            letters: format!("{text}{how}"),
                         });
                         started_at_s = Some(t);
                         let state = State::from_incoming(&list, Location::Start, 0.0);
@@ -399,7 +444,11 @@ pub fn bench(
             };
             let mut full = 0u32;
             for seed in 1..=seeds {
-                let report = run(config, round, seed, policy, machine_delay_s, |_| {})?;
+                let options = RoundOptions {
+                    machine_delay_s,
+                    ..RoundOptions::new(round, seed, policy)
+                };
+                let report = run(config, &options, |_| {})?;
                 on_run(&report);
                 row.runs += 1;
                 row.collisions += report.collisions;
@@ -440,7 +489,33 @@ mod tests {
     use super::*;
 
     fn round(round: u8, policy: RoundPolicy) -> RoundReport {
-        run(&Config::default(), round, 1, policy, 0.0, |_| {}).unwrap()
+        run(
+            &Config::default(),
+            &RoundOptions::new(round, 1, policy),
+            |_| {},
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_silent_server_then_a_forced_start_still_runs_the_round() {
+        let options = RoundOptions {
+            force_start_s: Some(3.0),
+            silent_server: true,
+            ..RoundOptions::new(1, 1, RoundPolicy::Ours)
+        };
+        let mut started = None;
+        let report = run(&Config::default(), &options, |event| {
+            if let RoundEvent::PartList { t_s, letters } = event {
+                started = Some((*t_s, letters.clone()));
+            }
+        })
+        .unwrap();
+        let (t_s, letters) = started.expect("the round never started");
+        // Nothing came from the server: the start is the operator's, at 3 s.
+        assert!((3.0..3.03).contains(&t_s), "started at {t_s}");
+        assert!(letters.ends_with("(forced by the operator)"), "{letters}");
+        assert_eq!(report.points, 4);
     }
 
     #[test]
