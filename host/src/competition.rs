@@ -10,7 +10,7 @@
 use crate::config::Config;
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{plan_original_route, plan_route};
+use crate::control::route::{ORIGINAL_APPROACH_M, plan_original_route, plan_route};
 use crate::field::Field;
 use crate::field::geometry::{Pose2, Vec2};
 use crate::field::waypoints::WaypointId;
@@ -19,7 +19,6 @@ use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
 use crate::planning::tasks::{self, Model, Place, Policy, State};
-use crate::sim::nav_bench::ORIGINAL_APPROACH_M;
 
 /// The task planner behind the mission's interface.
 pub struct TaskActions {
@@ -245,10 +244,10 @@ impl Navigator for RouteNavigator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::PartColor;
     use crate::planning::tasks::{
         BranchAndBound, Location, Original, Rules, StraightLineTimes, Timing,
     };
-    use crate::sim::parts::PartColor;
 
     fn model(round: u8) -> Model {
         let field = Field::competition();

@@ -660,9 +660,9 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     }
     for &(color, x, y) in &report.final_parts {
         let fill = match color {
-            ratf_host::sim::parts::PartColor::Red => "#d03030",
-            ratf_host::sim::parts::PartColor::Green => "#30a040",
-            ratf_host::sim::parts::PartColor::Blue => "#3060d0",
+            ratf_host::field::PartColor::Red => "#d03030",
+            ratf_host::field::PartColor::Green => "#30a040",
+            ratf_host::field::PartColor::Blue => "#3060d0",
         };
         plot.filled(
             &[

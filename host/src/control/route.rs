@@ -297,6 +297,11 @@ pub fn plan_route(
     Ok(route.with_turn_window(from_m, to_m))
 }
 
+/// Length of the original's straight final leg into a slot, m. 0.10: about its leaf edges
+/// into the warehouses (0.105 m to 50–53, 0.14 m to 62–65; original-system.md §6.1), fixed
+/// so the original's routes do not depend on our `navigation.dock_length_m`.
+pub const ORIGINAL_APPROACH_M: f64 = 0.10;
+
 /// The original's route (original-system.md §6.2) to the same goal: start at the nearest
 /// vertex of all (task leaves included), Dijkstra, the same approach into the slot as ours
 /// (the original's leaves are not our pick poses), consecutive segments merged only when

@@ -19,7 +19,8 @@ pub use markers::{Beacon, FloorMarker, WallMarker};
 pub use oriented_rect::OrientedRect;
 pub use stations::{
     Machine, MachineBlock, MachineKind, Obstacle, ObstacleKind, PART_DEPTH_M, PART_HEIGHT_M,
-    PART_PLATE_SIZE_M, PART_WIDTH_M, PICK_STANDOFF_M, Slot, SlotKind, Warehouse, WarehouseKind,
+    PART_PLATE_SIZE_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot, SlotKind, Warehouse,
+    WarehouseKind,
 };
 pub use waypoints::{Edge, Waypoint, WaypointGraph, WaypointId};
 

@@ -4,6 +4,7 @@
 //! `ratf_machine.scad`; mm in the comments, metres in the code.
 
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::fmt;
 
 use super::geometry::{Pose2, Rect, Vec2, wrap_angle};
 use super::waypoints::WaypointId;
@@ -31,6 +32,49 @@ pub const PART_PLATE_SIZE_M: (f64, f64) = (0.080, 0.020);
 /// across those 15 mm. The original stopped 127–177 mm from the plate (original-system.md
 /// §6.1), so its robot centre was not at its geometric centre or it stopped short.
 pub const PICK_STANDOFF_M: f64 = 0.165;
+
+/// A part's type (competition.md §1.7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum PartColor {
+    /// Raw: machine A, then B, then the outgoing warehouse.
+    Red,
+    /// Intermediate: machine B (or A in round 2), then the outgoing warehouse.
+    Green,
+    /// Final: the outgoing warehouse.
+    Blue,
+}
+
+impl PartColor {
+    /// The organisers' server letter.
+    pub const fn letter(self) -> char {
+        match self {
+            Self::Red => 'R',
+            Self::Green => 'G',
+            Self::Blue => 'B',
+        }
+    }
+
+    /// The colour for a server letter (`None` for `X` and anything else).
+    pub const fn from_letter(letter: char) -> Option<Self> {
+        match letter {
+            'R' => Some(Self::Red),
+            'G' => Some(Self::Green),
+            'B' => Some(Self::Blue),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for PartColor {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self {
+            Self::Red => "red",
+            Self::Green => "green",
+            Self::Blue => "blue",
+        };
+        f.write_str(name)
+    }
+}
 
 /// What an obstacle is part of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -349,7 +349,7 @@ impl RefereeClient {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::parts::PartColor::{Blue, Green, Red};
+    use crate::field::PartColor::{Blue, Green, Red};
     use proptest::prelude::*;
 
     const POLICY: RetryPolicy = RetryPolicy {

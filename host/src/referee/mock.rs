@@ -14,8 +14,8 @@
 use std::fmt;
 
 use super::protocol::{Reply, Request, SlotLetters};
+use crate::field::PartColor;
 use crate::field::{Field, MachineKind, WaypointId};
-use crate::sim::parts::PartColor;
 use crate::sim::rng::SimRng;
 
 /// Length of a team's slot in a round, s (competition.md §2: one 10-minute slot).

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use super::mock::{Area, MockReferee, MockSettings, Phase, ServerSlot};
 use super::protocol::letters_to_string;
 use super::server::MockServer;
-use crate::sim::parts::PartColor;
+use crate::field::PartColor;
 
 /// How long one wait for a datagram lasts, so commands and timers are seen promptly.
 const SERVE_SLICE: Duration = Duration::from_millis(20);

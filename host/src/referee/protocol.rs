@@ -8,7 +8,7 @@
 
 use std::fmt;
 
-use crate::sim::parts::PartColor;
+use crate::field::PartColor;
 
 /// The contents of four slots in the server's order (`None` = `X`, empty).
 ///

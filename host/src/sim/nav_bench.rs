@@ -19,14 +19,14 @@ use serde::Serialize;
 use crate::config::Config;
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{Route, plan_original_route, plan_route};
+use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
 use crate::drivers::imu::ImuError;
+use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Segment, wrap_angle};
 use crate::field::{Field, Rect, WaypointId};
 use crate::planning::graph::{PlanError, RoadMap};
 use crate::planning::shortcuts::{Footprint, FreeSpace};
 use crate::sim::harness::SimulatedRobot;
-use crate::sim::parts::PartColor;
 use crate::sim::world::{Collision, Scenario};
 
 /// Standstill before each trip while the Mega boots and telemetry starts, s.
@@ -36,11 +36,6 @@ pub const TIMEOUT_S: f64 = 20.0;
 /// Standstill after the end before the pose is measured, s (the motors' 0.1 s time
 /// constant, three times over).
 pub const SETTLE_S: f64 = 0.3;
-
-/// Length of the original's straight final leg into a slot, m. 0.10: about its leaf edges
-/// into the warehouses (0.105 m to 50–53, 0.14 m to 62–65; original-system.md §6.1), fixed
-/// so the original's routes do not depend on our `navigation.dock_length_m`.
-pub const ORIGINAL_APPROACH_M: f64 = 0.10;
 
 /// Which follower.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

@@ -19,53 +19,11 @@
 use crate::field::Field;
 use crate::field::OrientedRect;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
-use crate::field::stations::{MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, Slot};
+use crate::field::stations::{
+    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot,
+};
 use crate::field::waypoints::WaypointId;
 use std::f64::consts::PI;
-use std::fmt;
-
-/// A part's type (competition.md §1.7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub enum PartColor {
-    /// Raw: machine A, then B, then the outgoing warehouse.
-    Red,
-    /// Intermediate: machine B (or A in round 2), then the outgoing warehouse.
-    Green,
-    /// Final: the outgoing warehouse.
-    Blue,
-}
-
-impl PartColor {
-    /// The organisers' server letter.
-    pub const fn letter(self) -> char {
-        match self {
-            Self::Red => 'R',
-            Self::Green => 'G',
-            Self::Blue => 'B',
-        }
-    }
-
-    /// The colour for a server letter (`None` for `X` and anything else).
-    pub const fn from_letter(letter: char) -> Option<Self> {
-        match letter {
-            'R' => Some(Self::Red),
-            'G' => Some(Self::Green),
-            'B' => Some(Self::Blue),
-            _ => None,
-        }
-    }
-}
-
-impl fmt::Display for PartColor {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = match self {
-            Self::Red => "red",
-            Self::Green => "green",
-            Self::Blue => "blue",
-        };
-        f.write_str(name)
-    }
-}
 
 /// Where a part is.
 #[derive(Clone, Copy, Debug, PartialEq)]

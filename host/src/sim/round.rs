@@ -23,6 +23,7 @@ use serde::Serialize;
 use crate::competition::{DrivePreset, RouteNavigator, TaskActions};
 use crate::config::Config;
 use crate::field::Field;
+use crate::field::PartColor;
 use crate::field::geometry::wrap_angle;
 use crate::mission::{Mission, MissionConfig, MissionEvent};
 use crate::planning::tasks::{
@@ -33,7 +34,7 @@ use crate::referee::mock::{MockReferee, MockSettings, ServerSlot, round_parts};
 use crate::referee::protocol::{Reply, Request};
 use crate::referee::server::MockServer;
 use crate::sim::harness::SimulatedRobot;
-use crate::sim::parts::{PartColor, PartEvent, PartPlace};
+use crate::sim::parts::{PartEvent, PartPlace};
 use crate::sim::world::Scenario;
 
 /// When the operator starts the mock server, s after power-up.

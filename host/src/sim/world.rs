@@ -28,12 +28,13 @@ use crate::config::Config;
 use crate::drivers::imu::sim::{SimErrors, SimMotion, SimMpu9255};
 use crate::field::Field;
 use crate::field::OrientedRect;
+use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Vec2};
 use crate::kinematics::Mecanum;
 use crate::sim::body::{Body, TractionLimits};
 use crate::sim::lidar::{LidarScene, SimLidar, Solid};
 use crate::sim::motor::Motor;
-use crate::sim::parts::{Gripper, PartColor, PartEvent, Shop};
+use crate::sim::parts::{Gripper, PartEvent, Shop};
 use crate::sim::rng::SimRng;
 use crate::sim::serial::SerialLine;
 

@@ -13,8 +13,8 @@ use std::fmt;
 
 use super::travel::{Location, TravelMatrix, TravelTimes};
 use crate::field::MachineKind;
+use crate::field::PartColor;
 use crate::referee::protocol::SlotLetters;
-use crate::sim::parts::PartColor;
 
 /// Most parts a state may hold (the field has four incoming slots; eight leaves room for a
 /// confused server report without overflowing the search's 64-bit state key).

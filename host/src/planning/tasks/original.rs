@@ -16,7 +16,7 @@ use super::model::{Model, PartState, State, TaskError, TimedAction};
 use super::travel::Location;
 use super::{Plan, Policy};
 use crate::field::MachineKind;
-use crate::sim::parts::PartColor;
+use crate::field::PartColor;
 
 /// The 5dpo priority planner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

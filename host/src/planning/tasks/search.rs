@@ -23,7 +23,7 @@ use super::model::{Action, MAX_PARTS, Model, Place, State, TaskError, TimedActio
 use super::travel::{LOCATION_COUNT, Location};
 use super::{Plan, Policy};
 use crate::field::MachineKind;
-use crate::sim::parts::PartColor;
+use crate::field::PartColor;
 
 /// Finish times closer than this are equal, s.
 const EPS_S: f64 = 1e-9;
