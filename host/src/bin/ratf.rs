@@ -323,11 +323,41 @@ fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Append `value` as one JSON line.
-fn write_json_line(out: &mut impl Write, value: &impl serde::Serialize) -> anyhow::Result<()> {
-    serde_json::to_writer(&mut *out, value)?;
-    out.write_all(b"\n")?;
-    Ok(())
+/// A JSON-lines log file that keeps the first write error for the end, so that a run is not
+/// interrupted half-way by a full disk but still fails loudly.
+struct JsonLog {
+    path: PathBuf,
+    out: BufWriter<File>,
+    result: anyhow::Result<()>,
+}
+
+impl JsonLog {
+    fn create(path: PathBuf) -> anyhow::Result<Self> {
+        let file = File::create(&path).with_context(|| format!("creating {}", path.display()))?;
+        Ok(Self {
+            path,
+            out: BufWriter::new(file),
+            result: Ok(()),
+        })
+    }
+
+    /// Append `value` as one line (after an error, nothing more is written).
+    fn write(&mut self, value: &impl serde::Serialize) {
+        if self.result.is_ok() {
+            self.result = serde_json::to_writer(&mut self.out, value)
+                .map_err(anyhow::Error::from)
+                .and_then(|()| Ok(self.out.write_all(b"\n")?));
+        }
+    }
+
+    /// Append the summary line and flush; the first error of the whole log, if any.
+    fn finish(mut self, summary: &impl serde::Serialize) -> anyhow::Result<()> {
+        self.write(summary);
+        let flushed = self.out.flush().map_err(anyhow::Error::from);
+        self.result
+            .and(flushed)
+            .with_context(|| format!("writing {}", self.path.display()))
+    }
 }
 
 /// The configuration from `path`, or the defaults.
@@ -368,21 +398,11 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
     let mut reports = Vec::new();
     for named in scripts {
         let log_path = args.out.join(format!("drive-{named}.jsonl"));
-        let mut log = BufWriter::new(
-            File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?,
-        );
-        let mut write_result = Ok(());
+        let mut log = JsonLog::create(log_path)?;
         let started = Instant::now();
-        let (report, trace) = drive::run(&config, named, |record| {
-            if write_result.is_ok() {
-                write_result = write_json_line(&mut log, record);
-            }
-        })?;
+        let (report, trace) = drive::run(&config, named, |record| log.write(record))?;
         let wall_s = started.elapsed().as_secs_f64();
-        write_result
-            .and_then(|()| write_json_line(&mut log, &report))
-            .and_then(|()| Ok(log.flush()?))
-            .with_context(|| format!("writing {}", log_path.display()))?;
+        log.finish(&report)?;
         let svg_path = args.out.join(format!("drive-{named}.svg"));
         fs::write(&svg_path, plot_drive(&config, &report, &trace))
             .with_context(|| format!("writing {}", svg_path.display()))?;
@@ -576,9 +596,7 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
     let stem = format!("sim-round{}-seed{}-{}", args.round, args.seed, args.policy);
     let log_path = args.out.join(format!("{stem}.jsonl"));
-    let mut log = BufWriter::new(
-        File::create(&log_path).with_context(|| format!("creating {}", log_path.display()))?,
-    );
+    let mut log = JsonLog::create(log_path.clone())?;
     println!(
         "ratf sim: round {}, seed {}, policy {}, machine delay {} s",
         args.round, args.seed, args.policy, args.machine_delay_s
@@ -586,7 +604,6 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     let mut truth_path = Vec::new();
     let mut estimate_path = Vec::new();
     let mut collisions = Vec::new();
-    let mut write_result = Ok(());
     let started = Instant::now();
     let options = round::RoundOptions {
         machine_delay_s: args.machine_delay_s,
@@ -642,15 +659,10 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
                 serde_json::json!({ "t_s": t_s, "event": text })
             }
         };
-        if write_result.is_ok() {
-            write_result = write_json_line(&mut log, &line);
-        }
+        log.write(&line);
     })?;
     let wall_s = started.elapsed().as_secs_f64();
-    write_result
-        .and_then(|()| write_json_line(&mut log, &report))
-        .and_then(|()| Ok(log.flush()?))
-        .with_context(|| format!("writing {}", log_path.display()))?;
+    log.finish(&report)?;
 
     let mut plot = FieldPlot::new(&Field::competition());
     plot.path(&truth_path, "#1f4e9c", false, "ground truth");
