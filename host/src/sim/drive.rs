@@ -151,10 +151,7 @@ pub fn run(
         let now_us = sim.now_us();
         let truth = sim.world().body().pose;
         let odometry = sim.robot().estimation().odometry_pose();
-        let batches = sim.robot().input_counts().wheel_batches as usize;
-        let at_tick = batches
-            .checked_sub(1)
-            .and_then(|i| sim.world().tick_poses().get(i).copied());
+        let at_tick = sim.truth_at_last_telemetry();
         let (pos_err, heading_err) = at_tick.map_or((0.0, 0.0), |t| pose_error(odometry, t));
         let (estimate_err, _) = at_tick.map_or((0.0, 0.0), |t| pose_error(sim.robot().pose(), t));
         report.max_pos_err_m = report.max_pos_err_m.max(pos_err);

@@ -85,6 +85,16 @@ impl SimulatedRobot {
         &self.robot
     }
 
+    /// The true pose when the Mega counted the encoders for the last telemetry batch the
+    /// core received: the ground truth its odometry (and so its estimate) refers to, without
+    /// the telemetry's time in flight. `None` before the first batch.
+    pub fn truth_at_last_telemetry(&self) -> Option<crate::field::geometry::Pose2> {
+        let batches = self.robot.input_counts().wheel_batches as usize;
+        batches
+            .checked_sub(1)
+            .and_then(|i| self.world.tick_poses().get(i).copied())
+    }
+
     /// The core's output at the last host tick.
     pub fn last_output(&self) -> Option<Output> {
         self.last_output

@@ -358,8 +358,9 @@ fn run_once(config: &Config, condition: Condition, seed: u64) -> Result<[RunScor
         let batches = sim.robot().input_counts().wheel_batches;
         if batches != last_batches {
             last_batches = batches;
-            let truth = sim.world().tick_poses()[batches as usize - 1];
-            if sim.now_us() as f64 * 1e-6 >= SCORE_FROM_S {
+            if let Some(truth) = sim.truth_at_last_telemetry()
+                && sim.now_us() as f64 * 1e-6 >= SCORE_FROM_S
+            {
                 scores[0].sample(sim.robot().estimation().estimator(), truth);
                 scores[1].sample(original.estimator(), truth);
             }

@@ -353,7 +353,9 @@ pub fn run(
         let batches = sim.robot().input_counts().wheel_batches;
         if batches != last_batches && started_at_s.is_some() {
             last_batches = batches;
-            let truth = sim.world().tick_poses()[batches as usize - 1];
+            let Some(truth) = sim.truth_at_last_telemetry() else {
+                continue;
+            };
             let estimate = sim.robot().pose();
             pos_sq += (estimate.x - truth.x).powi(2) + (estimate.y - truth.y).powi(2);
             heading_sq += wrap_angle(estimate.yaw_rad - truth.yaw_rad).powi(2);
