@@ -13,7 +13,7 @@
 //! |---|---|---|
 //! | to pick | docked (switch closed) | back out and approach again, then skip the action |
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
-//! | backing out | `back_out_m` travelled | (bounded by its own time) |
+//! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
@@ -78,8 +78,12 @@ pub struct MissionConfig {
     /// Straight reverse after a pick or a drop, m. 0.08: the carried part (0.06 m deep) and
     /// the gripper clear the 0.07 m dividers before the robot turns.
     pub back_out_m: f64,
-    /// Reverse speed, m/s.
+    /// Top reverse speed, m/s. 0.3: half the cruise speed; the magnet holds the 0.2 kg
+    /// part rigidly (its pull is tens of newtons against 0.4 N at the ramp's 2 m/s²).
     pub back_out_speed_m_s: f64,
+    /// Ramp of the reverse speed, up and down, m/s². 2.0: the default
+    /// `navigation.max_accel_m_s2`, which the wheels' traction allows.
+    pub back_out_accel_m_s2: f64,
     /// Approaches per action before it is skipped.
     pub max_attempts: u32,
 }
@@ -91,7 +95,8 @@ impl Default for MissionConfig {
             grip_settle_s: 0.25,
             release_settle_s: 0.25,
             back_out_m: 0.08,
-            back_out_speed_m_s: 0.12,
+            back_out_speed_m_s: 0.3,
+            back_out_accel_m_s2: 2.0,
             max_attempts: 2,
         }
     }
@@ -170,6 +175,57 @@ enum State {
     Releasing { action: Action, since_us: u64 },
     /// Nothing left: stopped.
     Finished,
+}
+
+/// Reverse speed kept after the time profile has run out while the estimate still shows
+/// less than `back_out_m`, m/s (slow: the lagging estimate usually catches up in a tick
+/// or two).
+const BACK_OUT_CREEP_M_S: f64 = 0.03;
+
+/// The reverse out of a slot as a function of time: a trapezoid (or triangle) that covers
+/// `back_out_m` under `back_out_speed_m_s` and `back_out_accel_m_s2`. Open loop on time,
+/// because the pose estimate lags the wheels by about 0.1 s: braking on it would overshoot.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct BackOutProfile {
+    /// Peak speed, m/s.
+    peak_m_s: f64,
+    /// Acceleration (and deceleration), m/s².
+    accel_m_s2: f64,
+    /// Time at the peak speed, s.
+    cruise_s: f64,
+}
+
+impl BackOutProfile {
+    fn new(config: &MissionConfig) -> Self {
+        let distance = config.back_out_m.max(0.0);
+        let accel = config.back_out_accel_m_s2.max(1e-3);
+        let peak = config
+            .back_out_speed_m_s
+            .max(1e-3)
+            .min((accel * distance).sqrt());
+        Self {
+            peak_m_s: peak,
+            accel_m_s2: accel,
+            cruise_s: (distance - peak * peak / accel).max(0.0) / peak,
+        }
+    }
+
+    /// How long the reverse takes, s.
+    fn duration_s(&self) -> f64 {
+        2.0 * self.peak_m_s / self.accel_m_s2 + self.cruise_s
+    }
+
+    /// The reverse speed `t_s` after the start, m/s (0 after the end).
+    fn speed_m_s(&self, t_s: f64) -> f64 {
+        let ramp_s = self.peak_m_s / self.accel_m_s2;
+        if t_s < ramp_s {
+            self.accel_m_s2 * t_s
+        } else if t_s < ramp_s + self.cruise_s {
+            self.peak_m_s
+        } else {
+            (self.accel_m_s2 * (self.duration_s() - t_s)).max(0.0)
+        }
+    }
 }
 
 /// What follows a back-out.
@@ -386,10 +442,18 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 since_us,
             } => {
                 let travelled = from.position().distance(pose.position());
-                let limit_s = 3.0 * self.config.back_out_m / self.config.back_out_speed_m_s;
-                if travelled < self.config.back_out_m && Self::elapsed_s(now_us, since_us) < limit_s
-                {
-                    return BodyTwist::new(-self.config.back_out_speed_m_s, 0.0, 0.0);
+                let elapsed_s = Self::elapsed_s(now_us, since_us);
+                let profile = BackOutProfile::new(&self.config);
+                // The reverse follows its time profile; it ends once the profile has run
+                // out and the estimate (which lags) shows the distance, or, blocked, after
+                // three times the profile's duration.
+                let limit_s = 3.0 * profile.duration_s();
+                let done = travelled >= self.config.back_out_m && elapsed_s >= profile.duration_s();
+                if !done && elapsed_s < limit_s {
+                    let speed = profile
+                        .speed_m_s(elapsed_s)
+                        .max(BACK_OUT_CREEP_M_S * f64::from(travelled < self.config.back_out_m));
+                    return BodyTwist::new(-speed, 0.0, 0.0);
                 }
                 match then {
                     AfterBackOut::Carry(action) => {
@@ -664,6 +728,33 @@ mod tests {
         );
         assert!(events.contains(&MissionEvent::Placed { slot: b.drop }));
         assert_eq!(m.actions().outcomes, [(A, false), (b, true)]);
+    }
+
+    #[test]
+    fn the_back_out_profile_covers_its_distance_within_its_limits() {
+        for (distance, speed) in [(0.08, 0.3), (0.02, 0.3), (0.3, 0.12)] {
+            let config = MissionConfig {
+                back_out_m: distance,
+                back_out_speed_m_s: speed,
+                ..MissionConfig::default()
+            };
+            let profile = BackOutProfile::new(&config);
+            let dt = 1e-5;
+            let (mut covered, mut last, mut t) = (0.0, 0.0, 0.0);
+            while t < profile.duration_s() + 0.1 {
+                let v = profile.speed_m_s(t);
+                assert!(v <= speed + 1e-9, "{v} over {speed}");
+                assert!((v - last).abs() <= config.back_out_accel_m_s2 * dt + 1e-9);
+                covered += v * dt;
+                last = v;
+                t += dt;
+            }
+            assert_eq!(profile.speed_m_s(profile.duration_s() + 0.01), 0.0);
+            assert!(
+                (covered - distance).abs() < 1e-4,
+                "{covered} for {distance}"
+            );
+        }
     }
 
     #[test]
