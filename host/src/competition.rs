@@ -5,30 +5,70 @@
 //! asks its [`Policy`] for a plan whenever the mission wants an action (re-planning from the
 //! known state after every action, competition.md §6), and updates the state with the
 //! outcome: a placed part moves (and is turned by the machine it went to); a part whose
-//! action failed is given up, so the mission carries on with the others.
+//! action failed is given up, so the mission carries on with the others. When the organisers'
+//! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
 use crate::config::Config;
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
 use crate::control::route::{ORIGINAL_APPROACH_M, plan_original_route, plan_route};
 use crate::field::Field;
+use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Vec2};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
-use crate::planning::tasks::{self, Model, Place, Policy, State};
+use crate::planning::tasks::{self, MAX_PARTS, Model, PartState, Place, Policy, State};
+use crate::referee::protocol::SlotLetters;
+
+/// The server's four strings read one after the other, with when they were asked and
+/// answered (the robot's clock, µs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ServerSnapshot {
+    /// The answers to `IWP`, `OWP`, `MAP`, `MBP`, in that order.
+    pub areas: [SlotLetters; 4],
+    /// When the first of the four requests was sent, µs.
+    pub sent_us: u64,
+    /// When the last of the four answers arrived, µs.
+    pub answered_us: u64,
+}
+
+/// What [`TaskActions::offer_snapshot`] did with a snapshot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SnapshotUse {
+    /// It was folded into the planner's state.
+    Applied {
+        /// Parts on which the server and the robot disagreed (see [`State::reconcile`]).
+        disagreements: usize,
+    },
+    /// It was not: asked before the last action ended, answered after the robot began to
+    /// take the pending action's part, or showing more parts than the planner handles.
+    Ignored,
+}
 
 /// The task planner behind the mission's interface.
 pub struct TaskActions {
     field: Field,
     model: Model,
     policy: Box<dyn Policy>,
+    /// What the robot knows before the pending action (if any) picks its part.
     state: State,
-    pending: Option<tasks::Action>,
-    /// Parts given up after a failed action, by their index in the initial state.
+    /// The action handed to the mission, with its part as it was then.
+    pending: Option<(tasks::Action, PartState)>,
+    /// When the last action ended (0 before the first), µs: older snapshots are stale.
+    since_us: u64,
+    /// When the robot began to take the pending action's part, µs.
+    picking_us: Option<u64>,
+    /// Parts given up after a failed pick: where they were left and their colour.
+    given_up: Vec<(tasks::Location, PartColor)>,
+    /// Parts given up so far.
     abandoned: usize,
+    /// Snapshots folded in so far.
+    snapshots_applied: usize,
+    /// Disagreements with the server so far.
+    disagreements: usize,
 }
 
 impl std::fmt::Debug for TaskActions {
@@ -37,6 +77,10 @@ impl std::fmt::Debug for TaskActions {
             .field("policy", &self.policy.name())
             .field("state", &self.state)
             .field("pending", &self.pending)
+            .field("since_us", &self.since_us)
+            .field("picking_us", &self.picking_us)
+            .field("snapshots_applied", &self.snapshots_applied)
+            .field("disagreements", &self.disagreements)
             .finish()
     }
 }
@@ -50,11 +94,16 @@ impl TaskActions {
             policy,
             state,
             pending: None,
+            since_us: 0,
+            picking_us: None,
+            given_up: Vec::new(),
             abandoned: 0,
+            snapshots_applied: 0,
+            disagreements: 0,
         }
     }
 
-    /// What the planner believes now.
+    /// What the planner believes now (before the pending action, if any, is done).
     pub fn state(&self) -> &State {
         &self.state
     }
@@ -62,6 +111,62 @@ impl TaskActions {
     /// Parts given up so far.
     pub fn abandoned(&self) -> usize {
         self.abandoned
+    }
+
+    /// Server snapshots folded into the state so far.
+    pub fn snapshots_applied(&self) -> usize {
+        self.snapshots_applied
+    }
+
+    /// Parts on which the server disagreed with the robot, summed over the snapshots
+    /// folded in.
+    pub fn server_disagreements(&self) -> usize {
+        self.disagreements
+    }
+
+    /// The robot began, at `now_us`, to take the pending action's part (the magnet went
+    /// on). From then until the action is done the robot itself changes the floor, so
+    /// snapshots answered from `now_us` on are ignored. The first call per action counts.
+    pub fn picking(&mut self, now_us: u64) {
+        self.picking_us.get_or_insert(now_us);
+    }
+
+    /// Hand over the server's view. It is folded in only if it describes the state the
+    /// planner holds: every request sent after the last action ended and every answer
+    /// received before the pending action began its pick ([`Self::picking`]). Then the
+    /// server decides where the parts are ([`State::reconcile`]); the pending action is
+    /// applied on top when it is done, and the next plan starts from the result. Parts given
+    /// up stay given up while the server still shows them where they were left.
+    pub fn offer_snapshot(&mut self, snapshot: &ServerSnapshot) -> SnapshotUse {
+        let fresh = snapshot.sent_us >= self.since_us && snapshot.sent_us <= snapshot.answered_us;
+        let before_pick = self.picking_us.is_none_or(|p| snapshot.answered_us < p);
+        if !(fresh && before_pick) {
+            return SnapshotUse::Ignored;
+        }
+        let mut server = State::from_server(
+            snapshot.areas,
+            self.state.robot,
+            snapshot.answered_us as f64 * 1e-6,
+            self.model.timing,
+            self.model.rules,
+        );
+        let mut given_up = self.given_up.clone();
+        given_up.retain(|&(location, color)| {
+            let shown = server
+                .parts
+                .iter()
+                .position(|p| p.place == Place::At(location) && p.color == color);
+            shown.map(|i| server.parts.remove(i)).is_some()
+        });
+        let (state, disagreements) = self.state.reconcile(&server);
+        if state.parts.len() > MAX_PARTS {
+            return SnapshotUse::Ignored;
+        }
+        self.state = state;
+        self.given_up = given_up;
+        self.snapshots_applied += 1;
+        self.disagreements += disagreements;
+        SnapshotUse::Applied { disagreements }
     }
 
     fn waypoint(&self, location: tasks::Location) -> Option<WaypointId> {
@@ -80,20 +185,52 @@ impl ActionSource for TaskActions {
             Place::Carried => return None,
         };
         let drop = self.waypoint(next.to)?;
-        self.pending = Some(next);
+        let part = *self.state.parts.get(next.part)?;
+        self.pending = Some((next, part));
         Some(Action { pick, drop })
     }
 
     fn action_done(&mut self, _action: Action, placed: bool, now_us: u64) {
-        let Some(pending) = self.pending.take() else {
+        self.since_us = now_us;
+        self.picking_us = None;
+        let Some((pending, part)) = self.pending.take() else {
             return;
         };
-        if placed && let Ok((next, _)) = self.model.apply(&self.state, pending) {
-            self.state = next;
-        } else {
-            // The part could not be moved: give it up and plan the others.
-            self.state.parts.remove(pending.part);
-            self.abandoned += 1;
+        // A snapshot may have changed the part indices: find the part where it was.
+        let index = self
+            .state
+            .parts
+            .iter()
+            .position(|p| p.place == pending.from && p.color == part.color);
+        match (placed, index) {
+            (true, index) => {
+                // The robot's own placement outranks a snapshot that lost the part.
+                let index = index.unwrap_or_else(|| {
+                    self.state.parts.push(part);
+                    self.state.parts.len() - 1
+                });
+                let action = tasks::Action {
+                    part: index,
+                    ..pending
+                };
+                match self.model.apply(&self.state, action) {
+                    Ok((next, _)) => self.state = next,
+                    Err(_) => {
+                        self.state.parts.remove(index);
+                        self.abandoned += 1;
+                    }
+                }
+            }
+            (false, Some(index)) => {
+                // The part could not be moved: give it up and plan the others.
+                self.state.parts.remove(index);
+                self.abandoned += 1;
+                if let Place::At(location) = pending.from {
+                    self.given_up.push((location, part.color));
+                }
+            }
+            // The server had already said the part was gone.
+            (false, None) => {}
         }
         self.state.time_s = now_us as f64 * 1e-6;
     }
@@ -319,5 +456,129 @@ mod tests {
         assert_ne!(second.pick, first.pick);
         actions.action_done(second, true, 10_000_000);
         assert_eq!(actions.next_action(10_000_000), None);
+    }
+
+    const S: u64 = 1_000_000;
+
+    fn snapshot(areas: [SlotLetters; 4], sent_us: u64, answered_us: u64) -> ServerSnapshot {
+        ServerSnapshot {
+            areas,
+            sent_us,
+            answered_us,
+        }
+    }
+
+    fn incoming(slot: usize) -> WaypointId {
+        Location::Incoming(slot)
+            .waypoint(&Field::competition())
+            .unwrap()
+    }
+
+    fn actions(letters: [Option<PartColor>; 4]) -> TaskActions {
+        let state = State::from_incoming(&letters, Location::Start, 0.0);
+        TaskActions::new(model(1), Box::new(BranchAndBound::default()), state)
+    }
+
+    #[test]
+    fn a_snapshot_before_the_pick_is_folded_in_and_the_vanished_part_is_not_planned() {
+        let mut actions = actions([Some(PartColor::Blue); 4]);
+        let first = actions.next_action(0).unwrap();
+        let gone = (0..4).find(|&i| incoming(i) != first.pick).unwrap();
+        let mut areas = actions.state().to_server_areas();
+        areas[0][gone] = None;
+        let seen = snapshot(areas, S / 10, S / 5);
+        assert_eq!(
+            actions.offer_snapshot(&seen),
+            SnapshotUse::Applied { disagreements: 1 }
+        );
+        actions.picking(S / 2);
+        let late = snapshot(areas, S / 5, S / 2);
+        assert_eq!(actions.offer_snapshot(&late), SnapshotUse::Ignored);
+        actions.action_done(first, true, 5 * S);
+        let mut picks = vec![first.pick];
+        let mut t = 5 * S;
+        while let Some(action) = actions.next_action(t) {
+            picks.push(action.pick);
+            t += 5 * S;
+            actions.action_done(action, true, t);
+            assert!(picks.len() <= 4, "{picks:?}");
+        }
+        assert_eq!(picks.len(), 3);
+        assert!(!picks.contains(&incoming(gone)), "{picks:?}");
+        assert!(actions.state().is_complete());
+        assert_eq!(
+            (actions.snapshots_applied(), actions.server_disagreements()),
+            (1, 1)
+        );
+        assert_eq!(actions.abandoned(), 0);
+    }
+
+    #[test]
+    fn a_snapshot_asked_before_the_last_action_ended_is_ignored() {
+        let mut actions = actions([Some(PartColor::Blue), Some(PartColor::Blue), None, None]);
+        let first = actions.next_action(0).unwrap();
+        actions.picking(S);
+        actions.action_done(first, true, 5 * S);
+        // Asked at 4.9 s: the placement may not be in it.
+        let before = snapshot(
+            State::from_incoming(&[None; 4], Location::Start, 0.0).to_server_areas(),
+            4_900_000,
+            5_100_000,
+        );
+        assert_eq!(actions.offer_snapshot(&before), SnapshotUse::Ignored);
+        let agreeing = snapshot(actions.state().to_server_areas(), 5 * S, 5_100_000);
+        assert_eq!(
+            actions.offer_snapshot(&agreeing),
+            SnapshotUse::Applied { disagreements: 0 }
+        );
+        assert_eq!(actions.snapshots_applied(), 1);
+    }
+
+    #[test]
+    fn a_snapshot_while_nothing_is_pending_steers_the_next_plan() {
+        let mut actions = actions([Some(PartColor::Blue), None, None, None]);
+        let mut areas = actions.state().to_server_areas();
+        areas[0] = [None, None, Some(PartColor::Blue), None];
+        assert_eq!(
+            actions.offer_snapshot(&snapshot(areas, 0, S / 10)),
+            SnapshotUse::Applied { disagreements: 1 }
+        );
+        assert_eq!(actions.next_action(S).map(|a| a.pick), Some(incoming(2)));
+    }
+
+    #[test]
+    fn a_given_up_part_stays_given_up_while_the_server_still_shows_it() {
+        let mut actions = actions([Some(PartColor::Blue), Some(PartColor::Blue), None, None]);
+        let before = actions.state().to_server_areas();
+        let first = actions.next_action(0).unwrap();
+        actions.action_done(first, false, 5 * S);
+        assert_eq!(actions.abandoned(), 1);
+        assert_eq!(
+            actions.offer_snapshot(&snapshot(before, 5 * S, 5 * S)),
+            SnapshotUse::Applied { disagreements: 0 }
+        );
+        let second = actions.next_action(5 * S).unwrap();
+        assert_ne!(second.pick, first.pick);
+        actions.action_done(second, true, 10 * S);
+        assert_eq!(actions.next_action(10 * S), None);
+    }
+
+    #[test]
+    fn a_pending_part_the_server_lost_is_not_given_up_and_a_placement_still_counts() {
+        for placed in [false, true] {
+            let mut actions = actions([Some(PartColor::Blue), None, None, None]);
+            let first = actions.next_action(0).unwrap();
+            let empty = [[None; 4]; 4];
+            assert_eq!(
+                actions.offer_snapshot(&snapshot(empty, 0, S / 10)),
+                SnapshotUse::Applied { disagreements: 1 }
+            );
+            actions.action_done(first, placed, 5 * S);
+            assert_eq!(actions.abandoned(), 0);
+            // Placed: the robot saw it, so the part is in the outgoing warehouse.
+            assert_eq!(actions.state().parts.len(), usize::from(placed));
+            assert!(actions.state().is_complete());
+            assert_eq!(actions.next_action(5 * S), None);
+        }
     }
 }

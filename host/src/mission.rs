@@ -277,6 +277,19 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         &self.actions
     }
 
+    /// The action source, mutable: e.g. to hand the task planner the server's view between
+    /// ticks.
+    pub fn actions_mut(&mut self) -> &mut A {
+        &mut self.actions
+    }
+
+    /// True while the mission asks the planner or drives to a pick slot, the magnet off.
+    /// Until an action's first grip the robot has not touched its part, so the floor is as
+    /// the planner last knew it and the server's view of it can still correct the plan.
+    pub fn is_before_pick(&self) -> bool {
+        matches!(self.state, State::Idle | State::ToPick { .. })
+    }
+
     /// True once every action is done.
     pub fn is_finished(&self) -> bool {
         self.state == State::Finished

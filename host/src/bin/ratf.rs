@@ -644,6 +644,17 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
                             ),
                         )
                     }
+                    RoundEvent::ServerDisagrees {
+                        t_s,
+                        parts,
+                        letters,
+                    } => (
+                        *t_s,
+                        format!(
+                            "server disagrees on {parts} part(s): {letters} (IWP OWP MAP MBP); \
+                             re-planning from it"
+                        ),
+                    ),
                     RoundEvent::Points {
                         t_s,
                         slot,
@@ -698,14 +709,16 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
 
     println!(
         "round {}: {} points, {} in the outgoing warehouse, {:.1} s from the part list to the \
-         last placement; {} collisions, {} actions given up; localisation RMSE {:.1} mm / \
-         {:.2}°; {:.1} s wall",
+         last placement; {} collisions, {} actions given up; {} server disagreements over {} \
+         snapshots; localisation RMSE {:.1} mm / {:.2}°; {:.1} s wall",
         report.round,
         report.points,
         report.outgoing,
         report.time_s,
         report.collisions,
         report.timeouts,
+        report.server_disagreements,
+        report.server_snapshots,
         report.pos_rmse_m * 1000.0,
         report.heading_rmse_deg,
         wall_s

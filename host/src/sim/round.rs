@@ -7,6 +7,10 @@
 //!   (`referee::client::RefereeClient`) until it gets the part list, then builds its plan
 //!   (`competition::TaskActions`) and runs the [`Mission`] with our navigation or the
 //!   original's.
+//! - While the mission drives to a pick, the client reads `IWP`, `OWP`, `MAP`, `MBP` one
+//!   request at a time, a cycle every [`POLL_PERIOD_S`] at most, and hands every complete
+//!   snapshot to the planner, which re-plans from the server's strings (competition.md §6).
+//!   The robot never waits for them: a silent server only means planning from what it knows.
 //! - The world's part events are reported to the mock (`place`/`take`), so `IWP`, `OWP`,
 //!   `MAP`, `MBP` answer what is really on the floor; the world's own machines turn the parts.
 //! - Points are the rules' (competition.md §2): one per correct placement, on a machine that
@@ -20,7 +24,7 @@ use std::net::SocketAddr;
 
 use serde::Serialize;
 
-use crate::competition::{DrivePreset, RouteNavigator, TaskActions};
+use crate::competition::{DrivePreset, RouteNavigator, ServerSnapshot, SnapshotUse, TaskActions};
 use crate::config::Config;
 use crate::field::Field;
 use crate::field::PartColor;
@@ -29,9 +33,9 @@ use crate::mission::{Mission, MissionConfig, MissionEvent};
 use crate::planning::tasks::{
     BranchAndBound, Location, Model, Original, Policy, Rules, State, StraightLineTimes, Timing,
 };
-use crate::referee::client::{RefereeClient, RetryPolicy};
+use crate::referee::client::{ClientError, RefereeClient, RetryPolicy};
 use crate::referee::mock::{MockReferee, MockSettings, ServerSlot, round_parts};
-use crate::referee::protocol::{Reply, Request};
+use crate::referee::protocol::{Reply, Request, SlotLetters, letters_to_string};
 use crate::referee::server::MockServer;
 use crate::sim::harness::SimulatedRobot;
 use crate::sim::parts::{PartEvent, PartPlace};
@@ -39,7 +43,8 @@ use crate::sim::world::Scenario;
 
 /// When the operator starts the mock server, s after power-up.
 pub const START_DELAY_S: f64 = 1.0;
-/// How often the robot asks for the part list while waiting, s.
+/// How often the robot asks for the part list while waiting, and starts reading the
+/// server's four strings while driving to a pick, s.
 pub const POLL_PERIOD_S: f64 = 0.2;
 /// A round that has not finished after this long is stopped, s of simulated time.
 pub const ROUND_LIMIT_S: f64 = 300.0;
@@ -82,6 +87,15 @@ pub enum RoundEvent {
         /// The localiser's estimate.
         estimate: crate::field::geometry::Pose2,
     },
+    /// The server's strings disagreed with what the robot knew; it re-plans from them.
+    ServerDisagrees {
+        /// Simulated time of the last answer, s.
+        t_s: f64,
+        /// Parts that vanished, appeared, moved or changed colour.
+        parts: usize,
+        /// The four strings, `IWP OWP MAP MBP`.
+        letters: String,
+    },
     /// A placement scored.
     Points {
         /// Simulated time, s.
@@ -117,6 +131,12 @@ pub struct RoundReport {
     pub collisions: u32,
     /// Actions given up after their retries (mission timeouts and failures).
     pub timeouts: u32,
+    /// Parts on which the server's strings disagreed with what the robot knew, summed over
+    /// the snapshots the planner folded in.
+    pub server_disagreements: u32,
+    /// Server snapshots (`IWP`, `OWP`, `MAP`, `MBP`) the planner folded in.
+    #[serde(skip)]
+    pub server_snapshots: u32,
     /// Localisation position RMSE over the round, m.
     pub pos_rmse_m: f64,
     /// Localisation heading RMSE over the round, degrees.
@@ -153,6 +173,10 @@ pub struct RoundOptions {
     pub force_start_s: Option<f64>,
     /// The server never answers (it is down or unreachable): only a forced start starts.
     pub silent_server: bool,
+    /// At this time (s) the server stops showing the part in this slot, as if a referee had
+    /// taken it away; the simulated floor keeps it, so only the server's strings tell the
+    /// robot (a test of re-planning from the server).
+    pub server_removes: Option<(ServerSlot, f64)>,
 }
 
 impl RoundOptions {
@@ -165,6 +189,7 @@ impl RoundOptions {
             machine_delay_s: 0.0,
             force_start_s: None,
             silent_server: false,
+            server_removes: None,
         }
     }
 }
@@ -182,6 +207,7 @@ pub fn run(
         machine_delay_s,
         force_start_s,
         silent_server,
+        mut server_removes,
     } = *options;
     let mut config = config.clone();
     config.sim.seed = seed;
@@ -239,6 +265,7 @@ pub fn run(
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut seen_collisions = 0;
     let mut last_batches = 0;
+    let mut snapshots = SnapshotCycle::default();
 
     while !finished && (sim.now_us() as f64) * 1e-6 < ROUND_LIMIT_S {
         let now_us = sim.now_us();
@@ -246,6 +273,12 @@ pub fn run(
         if !server_started && t_s >= START_DELAY_S {
             server.referee_mut().start(now_us);
             server_started = true;
+        }
+        if let Some((slot, at_s)) = server_removes
+            && t_s >= at_s
+        {
+            let _ = server.referee_mut().take(slot, now_us);
+            server_removes = None;
         }
         let mut error = None;
         let ticked = sim.step(|robot, now| {
@@ -301,6 +334,37 @@ pub fn run(
                             finished = true;
                         }
                         on_event(&RoundEvent::Mission { t_s: t, event });
+                    }
+                    // Read the server while the floor is as the planner knows it.
+                    if !m.is_before_pick() {
+                        m.actions_mut().picking(now);
+                        snapshots.restart();
+                    } else if client.outstanding().is_none()
+                        && let Some(request) = snapshots.request_due(now)
+                        && let Err(e) = client.send_request(request, now)
+                    {
+                        error = Some(e.to_string());
+                    }
+                    let asked = client.outstanding();
+                    if !silent_server
+                        && asked.is_some()
+                        && let Err(e) = server.poll(now)
+                    {
+                        error = Some(e.to_string());
+                    }
+                    let snapshot = client
+                        .poll(now)
+                        .and_then(|result| snapshots.on_reply(asked, result, now));
+                    if let Some(snapshot) = snapshot
+                        && let SnapshotUse::Applied { disagreements } =
+                            m.actions_mut().offer_snapshot(&snapshot)
+                        && disagreements > 0
+                    {
+                        on_event(&RoundEvent::ServerDisagrees {
+                            t_s: t,
+                            parts: disagreements,
+                            letters: snapshot.areas.map(|a| letters_to_string(&a)).join(" "),
+                        });
                     }
                 }
             }
@@ -373,6 +437,14 @@ pub fn run(
         })
         .count() as u32;
     let n = samples.max(1) as f64;
+    let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+    let (server_disagreements, server_snapshots) = mission.as_ref().map_or((0, 0), |m| {
+        let actions = m.actions();
+        (
+            count(actions.server_disagreements()),
+            count(actions.snapshots_applied()),
+        )
+    });
     let robot_pose = sim.world().body().pose;
     let final_parts = (0..shop.parts().len())
         .map(|i| {
@@ -390,9 +462,84 @@ pub fn run(
         time_s: started_at_s.map_or(0.0, |s| (last_point_s - s).max(0.0)),
         collisions: sim.world().stats().collisions,
         timeouts,
+        server_disagreements,
+        server_snapshots,
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
     })
+}
+
+/// The requests of one snapshot, in [`ServerSnapshot::areas`] order.
+const SNAPSHOT_REQUESTS: [Request; 4] = [
+    Request::IncomingWarehouse,
+    Request::OutgoingWarehouse,
+    Request::MachineA,
+    Request::MachineB,
+];
+
+/// Cycles through [`SNAPSHOT_REQUESTS`], one every [`POLL_PERIOD_S`] at most: the answers
+/// so far and when the cycle's first request was sent.
+#[derive(Clone, Copy, Debug, Default)]
+struct SnapshotCycle {
+    /// Answers received, in order.
+    areas: [SlotLetters; 4],
+    /// How many of them.
+    answered: usize,
+    /// When the cycle's first request was sent, µs.
+    sent_us: u64,
+    /// When the next cycle may begin, µs.
+    next_cycle_us: u64,
+}
+
+impl SnapshotCycle {
+    /// Forget the answers so far: the next request is `IWP` again.
+    fn restart(&mut self) {
+        self.answered = 0;
+    }
+
+    /// The request to send at `now_us` when none is outstanding: the cycle's next one, or
+    /// `IWP` once a new cycle is due (`None` until then).
+    fn request_due(&mut self, now_us: u64) -> Option<Request> {
+        if self.answered == 0 {
+            if now_us < self.next_cycle_us {
+                return None;
+            }
+            self.sent_us = now_us;
+            self.next_cycle_us = now_us + (POLL_PERIOD_S * 1e6) as u64;
+        }
+        SNAPSHOT_REQUESTS.get(self.answered).copied()
+    }
+
+    /// The end of the request `asked` at `now_us`: the complete snapshot after the fourth
+    /// answer. Anything but the expected strings (`STOP`, a timeout, an answer to an
+    /// abandoned cycle) starts the cycle over.
+    fn on_reply(
+        &mut self,
+        asked: Option<Request>,
+        result: Result<Reply, ClientError>,
+        now_us: u64,
+    ) -> Option<ServerSnapshot> {
+        let expected = SNAPSHOT_REQUESTS.get(self.answered).copied();
+        match (result, asked == expected) {
+            (Ok(Reply::Slots(letters)), true) => {
+                self.areas[self.answered] = letters;
+                self.answered += 1;
+            }
+            _ => {
+                self.restart();
+                return None;
+            }
+        }
+        if self.answered < SNAPSHOT_REQUESTS.len() {
+            return None;
+        }
+        self.restart();
+        Some(ServerSnapshot {
+            areas: self.areas,
+            sent_us: self.sent_us,
+            answered_us: now_us,
+        })
+    }
 }
 
 /// The full score of round `round`: 4, 6 or 8 points (competition.md §2).
@@ -519,6 +666,10 @@ mod tests {
         assert!((3.0..3.03).contains(&t_s), "started at {t_s}");
         assert!(letters.ends_with("(forced by the operator)"), "{letters}");
         assert_eq!(report.points, 4);
+        assert_eq!(
+            report.server_snapshots, 0,
+            "the robot planned from what it knew"
+        );
     }
 
     #[test]
@@ -547,5 +698,100 @@ mod tests {
         assert!(scores(&field, Rules::for_round(2), 56, PartColor::Green));
         assert!(scores(&field, round3, 54, PartColor::Green)); // machine B input
         assert!(!scores(&field, round3, 55, PartColor::Green)); // an output is no placement
+    }
+
+    #[test]
+    fn every_round_reads_the_server_and_agrees_with_it_at_seed_1() {
+        for r in 1..=3 {
+            for policy in [RoundPolicy::Ours, RoundPolicy::Original] {
+                let report = round(r, policy);
+                assert!(report.server_snapshots > 0, "round {r}: {report:?}");
+                assert_eq!(report.server_disagreements, 0, "round {r}: {report:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_part_the_server_stops_showing_is_not_fetched_and_the_rest_still_score() {
+        // Which incoming slot the robot empties last in the normal round.
+        let mut picks = Vec::new();
+        let options = RoundOptions::new(1, 1, RoundPolicy::Ours);
+        run(&Config::default(), &options, |event| {
+            if let RoundEvent::Mission {
+                event: MissionEvent::ActionStarted { action, .. },
+                ..
+            } = event
+            {
+                picks.push(action.pick);
+            }
+        })
+        .unwrap();
+        let field = Field::competition();
+        let last = *picks.last().unwrap();
+        let slot = ServerSlot::of_waypoint(&field, last).unwrap();
+
+        // Now a referee takes that part away soon after the start.
+        let options = RoundOptions {
+            server_removes: Some((slot, START_DELAY_S + 0.5)),
+            ..options
+        };
+        let (mut picks, mut told, mut finished) = (Vec::new(), 0, false);
+        let report = run(&Config::default(), &options, |event| match event {
+            RoundEvent::Mission { event, .. } => match event {
+                MissionEvent::ActionStarted { action, .. } => picks.push(action.pick),
+                MissionEvent::Finished => finished = true,
+                _ => {}
+            },
+            RoundEvent::ServerDisagrees { parts, .. } => told += parts,
+            _ => {}
+        })
+        .unwrap();
+        assert!(!picks.contains(&last), "fetched {last:?}: {picks:?}");
+        assert!(finished, "{report:?}");
+        assert_eq!((report.points, report.outgoing), (3, 3), "{report:?}");
+        assert_eq!(report.timeouts, 0, "{report:?}");
+        assert_eq!(report.server_disagreements, 1, "{report:?}");
+        assert_eq!(told, 1);
+    }
+
+    #[test]
+    fn a_snapshot_is_four_answers_in_order_and_anything_else_starts_over() {
+        let letters = |text: &str| crate::referee::protocol::parse_letters(text).unwrap();
+        let mut cycle = SnapshotCycle::default();
+        let answer = |cycle: &mut SnapshotCycle, now_us: u64, reply: Reply| {
+            let request = cycle.request_due(now_us);
+            cycle.on_reply(request, Ok(reply), now_us)
+        };
+        assert_eq!(answer(&mut cycle, 0, Reply::Slots(letters("BBBB"))), None);
+        assert_eq!(answer(&mut cycle, 20, Reply::Stop), None);
+        // Started over: the next cycle waits for its period.
+        assert_eq!(cycle.request_due(100), None);
+        let period_us = (POLL_PERIOD_S * 1e6) as u64;
+        let texts = ["BXBB", "XBXX", "XXXX", "XXXX"];
+        let mut snapshot = None;
+        for (k, text) in texts.into_iter().enumerate() {
+            snapshot = answer(
+                &mut cycle,
+                period_us + k as u64,
+                Reply::Slots(letters(text)),
+            );
+        }
+        assert_eq!(
+            snapshot,
+            Some(ServerSnapshot {
+                areas: texts.map(letters),
+                sent_us: period_us,
+                answered_us: period_us + 3,
+            })
+        );
+        // A reply to something else is not taken for the expected strings.
+        let request = cycle.request_due(3 * period_us);
+        assert_eq!(request, Some(Request::IncomingWarehouse));
+        let late = cycle.on_reply(
+            Some(Request::MachineB),
+            Ok(Reply::Slots(letters("XXXX"))),
+            3 * period_us,
+        );
+        assert_eq!((late, cycle.answered), (None, 0));
     }
 }

@@ -1,5 +1,6 @@
 //! The task planner's world: places, travel times, the parts' state, and what one pick-and-
-//! drop action does to it (with its timing).
+//! drop action does to it (with its timing); and the state as the organisers' server shows
+//! it, and corrected by it ([`State::to_server_areas`], [`State::reconcile`]).
 //!
 //! Timing of an action from robot location `L` at time `t` moving part `p` from `P` to `D`:
 //! travel `T(L, P)`, wait until the part is ready (a machine's output appears after the
@@ -178,6 +179,111 @@ impl State {
         state
     }
 
+    /// What the organisers' server would answer for this state: the four strings (`IWP`,
+    /// `OWP`, `MAP`, `MBP`) of every part standing at a slot. A part booked on a machine's
+    /// output that is not ready at `time_s`, or is queued behind another one there, is shown
+    /// on the row's input with its colour before the machine, as the server shows a part
+    /// being processed. Carried parts are not shown; a second part on one slot is left out.
+    pub fn to_server_areas(&self) -> [SlotLetters; 4] {
+        let mut areas: [SlotLetters; 4] = [[None; 4]; 4];
+        // The first ready part of a row takes its output.
+        let mut order: Vec<usize> = (0..self.parts.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (pa, pb) = (&self.parts[a], &self.parts[b]);
+            pa.ready_s.total_cmp(&pb.ready_s).then(a.cmp(&b))
+        });
+        for i in order {
+            let p = self.parts[i];
+            let Place::At(location) = p.place else {
+                continue;
+            };
+            let (area, index, color) = match location {
+                Location::Start => continue,
+                Location::Incoming(slot) => (0, slot, p.color),
+                Location::Outgoing(slot) => (1, slot, p.color),
+                Location::MachineInput(kind, row) => (machine_area(kind), 2 * row, p.color),
+                Location::MachineOutput(kind, row) => {
+                    let area = machine_area(kind);
+                    let output_free = areas[area].get(2 * row + 1) == Some(&None);
+                    if p.ready_s <= self.time_s && output_free {
+                        (area, 2 * row + 1, p.color)
+                    } else {
+                        (area, 2 * row, before(kind, p.color))
+                    }
+                }
+            };
+            if let Some(cell) = areas[area].get_mut(index) {
+                cell.get_or_insert(color);
+            }
+        }
+        areas
+    }
+
+    /// This state corrected by `server`, the server's view (e.g. [`State::from_server`]),
+    /// and how many parts disagreed.
+    ///
+    /// The server is the truth for where the parts stand and their colours
+    /// (competition.md §6: "server strings are the ground truth"); we know better when a
+    /// machine finishes and what a part was at the start. So a part of ours that the server
+    /// shows at the same place with the same colour is kept, `initial` and `ready_s` included
+    /// (`ready_s` is only brought forward to the server's when the server has the part ready,
+    /// i.e. `ready_s <= server.time_s`, as `from_server` marks a part seen on an output); our
+    /// other parts are dropped, the server's other parts are added after ours. Carried parts
+    /// (the server cannot see them), `robot` and `time_s` are kept from `self`.
+    ///
+    /// The count is the larger of parts dropped and parts added: a part that vanished or
+    /// appeared counts once, and so does one that moved or changed colour.
+    pub fn reconcile(&self, server: &State) -> (State, usize) {
+        let mut matched = vec![false; server.parts.len()];
+        let mut kept: Vec<Option<PartState>> = vec![None; self.parts.len()];
+        // Ours in the order they become ready meet the server's in the same order, so a
+        // queue on a machine output pairs its first part with the one the server has ready.
+        let mut order: Vec<usize> = (0..self.parts.len()).collect();
+        order.sort_by(|&a, &b| {
+            let (pa, pb) = (&self.parts[a], &self.parts[b]);
+            pa.ready_s.total_cmp(&pb.ready_s).then(a.cmp(&b))
+        });
+        for i in order {
+            let ours = self.parts[i];
+            if ours.place == Place::Carried {
+                kept[i] = Some(ours);
+                continue;
+            }
+            let candidate = server
+                .parts
+                .iter()
+                .enumerate()
+                .filter(|&(j, s)| !matched[j] && s.place == ours.place && s.color == ours.color)
+                .min_by(|(_, a), (_, b)| a.ready_s.total_cmp(&b.ready_s));
+            if let Some((j, theirs)) = candidate {
+                matched[j] = true;
+                let mut part = ours;
+                if theirs.ready_s <= server.time_s {
+                    part.ready_s = part.ready_s.min(theirs.ready_s);
+                }
+                kept[i] = Some(part);
+            }
+        }
+        let vanished = kept.iter().filter(|p| p.is_none()).count();
+        let mut parts: Vec<PartState> = kept.into_iter().flatten().collect();
+        let before_added = parts.len();
+        parts.extend(
+            server
+                .parts
+                .iter()
+                .zip(&matched)
+                .filter(|&(p, &m)| !m && p.place != Place::Carried)
+                .map(|(p, _)| *p),
+        );
+        let appeared = parts.len() - before_added;
+        let state = State {
+            robot: self.robot,
+            time_s: self.time_s,
+            parts,
+        };
+        (state, vanished.max(appeared))
+    }
+
     /// Whether every part is finished (full score).
     pub fn is_complete(&self) -> bool {
         self.parts.iter().all(PartState::is_done)
@@ -232,6 +338,14 @@ impl State {
             }
             _ => false,
         }
+    }
+}
+
+/// The index of machine `kind`'s strings in [`State::to_server_areas`] (`MAP`, `MBP`).
+fn machine_area(kind: MachineKind) -> usize {
+    match kind {
+        MachineKind::A => 2,
+        MachineKind::B => 3,
     }
 }
 
@@ -435,8 +549,9 @@ impl Model {
 mod tests {
     use super::*;
     use crate::planning::tasks::travel::LOCATION_COUNT;
-    use crate::referee::protocol::parse_letters;
+    use crate::referee::protocol::{letters_to_string, parse_letters};
     use PartColor::{Blue, Green, Red};
+    use proptest::prelude::*;
 
     /// Travel 2 s between any two different locations.
     struct Flat;
@@ -600,6 +715,175 @@ mod tests {
         let index = s.parts.iter().position(|p| p.place == b1[0].place).unwrap();
         assert!(s.pickable(index));
         assert!(!s.is_complete());
+    }
+
+    /// `state` as the server would show it, read back with `from_server` at the state's time.
+    fn seen_by_server(m: &Model, state: &State) -> State {
+        State::from_server(
+            state.to_server_areas(),
+            Location::Start,
+            state.time_s,
+            m.timing,
+            m.rules,
+        )
+    }
+
+    /// Round 3 after two moves: the red on machine A (ready at 15.5 s), the blue out.
+    fn round_3_midway(m: &Model) -> State {
+        let s = state("RGGB");
+        let (s, _) = m
+            .apply(
+                &s,
+                act(
+                    0,
+                    Location::Incoming(0),
+                    Location::MachineInput(MachineKind::A, 0),
+                ),
+            )
+            .unwrap();
+        let (s, _) = m
+            .apply(&s, act(3, Location::Incoming(3), Location::Outgoing(1)))
+            .unwrap();
+        s
+    }
+
+    #[test]
+    fn the_server_view_of_a_state_shows_work_in_progress_on_the_input() {
+        let m = model(10.0, false);
+        let mut s = round_3_midway(&m);
+        let text = |s: &State| s.to_server_areas().map(|a| letters_to_string(&a)).join(" ");
+        assert_eq!(s.time_s, 11.0);
+        assert_eq!(text(&s), "XGGX XBXX RXXX XXXX");
+        s.time_s = 15.5;
+        assert_eq!(text(&s), "XGGX XBXX XGXX XXXX");
+    }
+
+    #[test]
+    fn a_server_that_agrees_changes_nothing() {
+        let m = model(10.0, false);
+        let mut s = round_3_midway(&m);
+        for time_s in [11.0, 15.5, 40.0] {
+            s.time_s = time_s;
+            let (reconciled, disagreements) = s.reconcile(&seen_by_server(&m, &s));
+            assert_eq!((reconciled, disagreements), (s.clone(), 0), "at {time_s} s");
+        }
+    }
+
+    #[test]
+    fn a_vanished_part_is_dropped_from_the_plan() {
+        let m = model(0.0, false);
+        let s = state("BBBB");
+        let mut areas = s.to_server_areas();
+        areas[0][2] = None;
+        let server = State::from_server(areas, Location::Start, 0.0, m.timing, m.rules);
+        let (reconciled, disagreements) = s.reconcile(&server);
+        assert_eq!(disagreements, 1);
+        let places: Vec<Place> = reconciled.parts.iter().map(|p| p.place).collect();
+        let incoming = |i| Place::At(Location::Incoming(i));
+        assert_eq!(places, [incoming(0), incoming(1), incoming(3)]);
+        assert!(m.actions(&reconciled).iter().all(|a| a.from != incoming(2)));
+    }
+
+    #[test]
+    fn an_unexpected_part_appears_with_its_machine_work_booked() {
+        let m = model(6.0, false);
+        let mut s = state("BXXX");
+        s.time_s = 20.0;
+        let mut areas = s.to_server_areas();
+        areas[3][2] = Some(Green);
+        let server = State::from_server(areas, Location::Start, 20.0, m.timing, m.rules);
+        let (reconciled, disagreements) = s.reconcile(&server);
+        assert_eq!(disagreements, 1);
+        assert_eq!(reconciled.parts[0], s.parts[0]);
+        let new = reconciled.parts[1];
+        assert_eq!(
+            (new.color, new.initial, new.place, new.ready_s),
+            (
+                Blue,
+                Green,
+                Place::At(Location::MachineOutput(MachineKind::B, 1)),
+                26.0
+            )
+        );
+    }
+
+    #[test]
+    fn a_moved_or_recoloured_part_counts_once() {
+        let m = model(0.0, false);
+        let s = state("BGXX");
+        let l = |t: &str| parse_letters(t).unwrap();
+        let none = l("XXXX");
+        for (incoming, want) in [("BXGX", 1), ("BBXX", 1), ("XXGB", 2), ("BGXX", 0)] {
+            let server = State::from_server(
+                [l(incoming), none, none, none],
+                Location::Start,
+                0.0,
+                m.timing,
+                m.rules,
+            );
+            assert_eq!(s.reconcile(&server).1, want, "{incoming}");
+        }
+    }
+
+    #[test]
+    fn a_part_the_machine_is_turning_keeps_our_ready_time_until_the_server_shows_it_done() {
+        let m = model(10.0, false);
+        let mut s = round_3_midway(&m);
+        let red = 0;
+        assert_eq!(s.parts[red].ready_s, 15.5);
+        // At 12 s the server still has the red on A's input: it books it ready at 22 s, but
+        // we know when it went in.
+        s.time_s = 12.0;
+        let mut server = seen_by_server(&m, &s);
+        server.robot = Location::Outgoing(3);
+        let (reconciled, disagreements) = s.reconcile(&server);
+        assert_eq!(disagreements, 0);
+        assert_eq!(reconciled.parts[red].ready_s, 15.5);
+        assert_eq!(reconciled.parts[red].initial, Red);
+        assert_eq!(reconciled.robot, s.robot);
+        // At 14 s the machine was faster than we planned: the green is out, ready now.
+        let mut areas = s.to_server_areas();
+        areas[2] = parse_letters("XGXX").unwrap();
+        let server = State::from_server(areas, Location::Start, 14.0, m.timing, m.rules);
+        let (reconciled, disagreements) = s.reconcile(&server);
+        assert_eq!(disagreements, 0);
+        assert_eq!(reconciled.parts[red].ready_s, 14.0);
+        assert_eq!(reconciled.time_s, 12.0, "the time stays ours");
+    }
+
+    #[test]
+    fn a_carried_part_is_kept_though_the_server_cannot_see_it() {
+        let m = model(0.0, false);
+        let mut s = state("BBXX");
+        s.parts[1].place = Place::Carried;
+        let (reconciled, disagreements) = s.reconcile(&seen_by_server(&m, &s));
+        assert_eq!((reconciled, disagreements), (s, 0));
+    }
+
+    proptest! {
+        #[test]
+        fn any_reachable_state_reconciled_with_its_own_server_view_is_unchanged(
+            letters in prop::array::uniform4(prop::option::of(prop_oneof![
+                Just(Red),
+                Just(Green),
+                Just(Blue)
+            ])),
+            moves in prop::collection::vec((any::<prop::sample::Index>(), 0.0..30.0f64), 0..9),
+            delay_s in 0.0..20.0f64,
+            green_at_a in any::<bool>(),
+        ) {
+            let m = model(delay_s, green_at_a);
+            let mut s = State::from_incoming(&letters, Location::Start, 0.0);
+            for (choice, wait_s) in moves {
+                let actions = m.actions(&s);
+                if actions.is_empty() {
+                    break;
+                }
+                s = m.apply(&s, actions[choice.index(actions.len())]).unwrap().0;
+                s.time_s += wait_s;
+            }
+            prop_assert_eq!(s.reconcile(&seen_by_server(&m, &s)), (s.clone(), 0));
+        }
     }
 
     #[test]
