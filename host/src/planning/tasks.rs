@@ -4,10 +4,13 @@
 //!
 //! [`travel`] holds the places and the travel times (supplied by the caller through
 //! [`TravelTimes`]); [`model`] is the rest of the world (handling and machine times, the
-//! parts' state and what an action does); a [`Policy`] turns a [`State`] into a [`Plan`]. Two policies: [`BranchAndBound`] ("ours",
-//! optimal over every sequence) and [`Original`] (the 5dpo priority rules). Both are meant to
-//! be re-run after every action from the known state, and from the server's strings
-//! ([`State::from_server`]) when it answers (competition.md §6).
+//! parts' state and what an action does); a [`Policy`] turns a [`State`] into a [`Plan`].
+//! Two policies: [`BranchAndBound`] ("ours", optimal over every sequence) and [`Original`]
+//! (the 5dpo priority rules). Both are re-run after every action from the known state,
+//! corrected by the server's strings when it answers: [`State::from_server`] reads them and
+//! [`State::reconcile`] takes them as the truth about where the parts are while keeping what
+//! only the robot knows (machine ready times); `competition::TaskActions` does this
+//! (competition.md §6).
 
 pub mod model;
 pub mod original;
