@@ -20,6 +20,7 @@
 //!
 //! A skipped action is reported to the planner, which re-plans from what it knows.
 
+use crate::control::route::SLOT_EXIT_M;
 use crate::field::geometry::Pose2;
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
@@ -75,8 +76,7 @@ pub struct MissionConfig {
     pub grip_settle_s: f64,
     /// Magnet off before moving away, s. 0.25 (the same reasoning).
     pub release_settle_s: f64,
-    /// Straight reverse after a pick or a drop, m. 0.08: the carried part (0.06 m deep) and
-    /// the gripper clear the 0.07 m dividers before the robot turns.
+    /// Straight reverse after a pick or a drop, m: [`SLOT_EXIT_M`].
     pub back_out_m: f64,
     /// Top reverse speed, m/s. 0.3: half the cruise speed; the magnet holds the 0.2 kg
     /// part rigidly (its pull is tens of newtons against 0.4 N at the ramp's 2 m/s²).
@@ -86,6 +86,10 @@ pub struct MissionConfig {
     pub back_out_accel_m_s2: f64,
     /// Approaches per action before it is skipped.
     pub max_attempts: u32,
+    /// The navigator's route to the drop begins with the straight exit from the pick slot
+    /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
+    /// goes straight on to the drop instead of reversing out and stopping first.
+    pub exit_on_route_after_pick: bool,
 }
 
 impl Default for MissionConfig {
@@ -94,10 +98,11 @@ impl Default for MissionConfig {
             drive_timeout_s: 25.0,
             grip_settle_s: 0.25,
             release_settle_s: 0.25,
-            back_out_m: 0.08,
+            back_out_m: SLOT_EXIT_M,
             back_out_speed_m_s: 0.3,
             back_out_accel_m_s2: 2.0,
             max_attempts: 2,
+            exit_on_route_after_pick: false,
         }
     }
 }
@@ -438,11 +443,19 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 }
                 if switch {
                     events.push(MissionEvent::Picked { slot: action.pick });
-                    self.state = State::BackingOut {
-                        from: pose,
-                        then: AfterBackOut::Carry(action),
-                        since_us: now_us,
-                    };
+                    if self.config.exit_on_route_after_pick {
+                        self.navigator.go_to(now_us, pose, action.drop, false);
+                        self.state = State::ToDrop {
+                            action,
+                            since_us: now_us,
+                        };
+                    } else {
+                        self.state = State::BackingOut {
+                            from: pose,
+                            then: AfterBackOut::Carry(action),
+                            since_us: now_us,
+                        };
+                    }
                 } else {
                     self.solenoid_on = false;
                     self.retry_or_skip(action, attempt, SkipReason::NotHeld, now_us, pose, events);
@@ -652,6 +665,25 @@ mod tests {
         assert_eq!(m.actions().outcomes, [(A, true)]);
         assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
         assert!(m.is_finished());
+    }
+
+    #[test]
+    fn with_the_exit_on_the_route_the_robot_goes_from_the_pick_straight_to_the_drop() {
+        let mut m = mission(vec![A]);
+        m.config.exit_on_route_after_pick = true;
+        let mut reversed_while_carrying = false;
+        let events = run(
+            &mut m,
+            |state, magnet| {
+                reversed_while_carrying |= matches!(state, State::BackingOut { .. }) && magnet;
+                matches!(state, State::ToPick { .. } | State::Gripping { .. }) || magnet
+            },
+            200,
+        );
+        assert_eq!(events.len(), 4, "{events:?}");
+        assert_eq!(events[2], MissionEvent::Placed { slot: A.drop });
+        assert!(!reversed_while_carrying);
+        assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
     }
 
     #[test]

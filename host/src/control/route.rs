@@ -2,7 +2,7 @@
 //! optional final docking segment; and how routes to a slot are planned.
 
 use crate::config::NavigationConfig;
-use crate::field::geometry::{Pose2, Segment, Vec2};
+use crate::field::geometry::{Pose2, Segment, Vec2, wrap_angle};
 use crate::field::{Field, Slot};
 use crate::planning::graph::{PlanError, RoadMap, merge_collinear};
 use crate::planning::shortcuts::FreeSpace;
@@ -192,6 +192,30 @@ fn approach(mut graph_points: Vec<Vec2>, slot: &Slot, dock_length_m: f64) -> Vec
     graph_points
 }
 
+/// How far straight out of a slot the robot goes before it moves sideways or turns, m.
+/// 0.08: the carried part (0.06 m deep) and the gripper clear the 0.07 m dividers.
+pub const SLOT_EXIT_M: f64 = 0.08;
+
+/// Across-the-face offset within which a robot counts as standing in a slot's approach, m
+/// (the slot's capture width, `sim::parts`).
+const IN_SLOT_ACROSS_M: f64 = 0.02;
+
+/// The slot whose approach the robot at `pose` stands in, facing it, closer to its face
+/// than [`SLOT_EXIT_M`] (just docked or just released), if any.
+fn slot_to_leave(field: &Field, pose: Pose2) -> Option<&Slot> {
+    field.slots().find(|slot| {
+        let normal = Vec2::from_angle(slot.face_normal_rad);
+        let offset = pose.position() - slot.pick_pose.position();
+        let out = offset.dot(normal);
+        offset.cross(normal).abs() < IN_SLOT_ACROSS_M
+            && (-IN_SLOT_ACROSS_M..SLOT_EXIT_M - IN_SLOT_ACROSS_M).contains(&out)
+            && wrap_angle(pose.yaw_rad - slot.pick_pose.yaw_rad).abs() < IN_SLOT_MAX_YAW_RAD
+    })
+}
+
+/// Heading error within which a robot in a slot's approach counts as facing it, rad (10°).
+const IN_SLOT_MAX_YAW_RAD: f64 = 0.175;
+
 /// Drop consecutive points closer than [`MERGE_TOLERANCE_M`] (keeping the last one).
 fn dedup(points: Vec<Vec2>) -> Vec<Vec2> {
     let mut out: Vec<Vec2> = Vec::with_capacity(points.len());
@@ -261,7 +285,8 @@ pub fn turn_window(route: &Route, space: &FreeSpace, config: &NavigationConfig) 
     })
 }
 
-/// Our route from `start` to `slot`'s pick pose: the current position, the nearest
+/// Our route from `start` to `slot`'s pick pose: the current position, straight out of the
+/// slot the robot stands in if any ([`SLOT_EXIT_M`]), the nearest
 /// non-task vertex reachable in a straight line, Dijkstra to the slot, the straight docking
 /// approach, collinear points merged; with `config.shortcuts`, shortcuts (free at the start
 /// and goal headings) everywhere except on the docking segment; and the stretch where the
@@ -274,9 +299,16 @@ pub fn plan_route(
     slot: &Slot,
     config: &NavigationConfig,
 ) -> Result<Route, PlanError> {
-    let first = map.start_vertex(field, start.position(), 0.0)?;
-    let path = map.shortest_path(first, slot.waypoint)?;
     let mut points = vec![start.position()];
+    // Standing in a slot, first straight out of it (never sideways between its dividers).
+    if let Some(docked) = slot_to_leave(field, start) {
+        let exit =
+            docked.pick_pose.position() + Vec2::from_angle(docked.face_normal_rad) * SLOT_EXIT_M;
+        points.push(exit);
+    }
+    let leave_from = points.last().copied().unwrap_or(start.position());
+    let first = map.start_vertex(field, leave_from, 0.0)?;
+    let path = map.shortest_path(first, slot.waypoint)?;
     points.extend(map.positions(&path));
     let points = approach(points, slot, config.dock_length_m);
     let mut points = merge_collinear(&dedup(points), MERGE_TOLERANCE_M);
@@ -425,7 +457,7 @@ mod tests {
     use super::*;
     use crate::field::SlotKind;
     use crate::field::WaypointGraph;
-    use crate::field::geometry::wrap_angle;
+    use crate::field::waypoints::WaypointId;
     use crate::planning::shortcuts::Footprint;
 
     #[test]
@@ -518,6 +550,44 @@ mod tests {
             }
         }
         assert!(checked > 400, "{checked}");
+    }
+
+    #[test]
+    fn from_inside_a_slot_the_route_first_leaves_it_straight() {
+        let field = Field::competition();
+        let map = RoadMap::new(field.waypoints().clone());
+        let config = NavigationConfig::default();
+        let footprint = Footprint {
+            length_m: 0.30,
+            width_m: 0.30,
+            carrying: true,
+        };
+        let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+        let goal = field.slot_for_waypoint(WaypointId(62)).unwrap();
+        for from in field.slots().filter(|s| s.waypoint != goal.waypoint) {
+            let normal = Vec2::from_angle(from.face_normal_rad);
+            // Docked a little short of the pick pose and a few millimetres off its axis.
+            let across = Vec2::from_angle(from.face_normal_rad + std::f64::consts::FRAC_PI_2);
+            let p = from.pick_pose.position() + normal * 0.004 + across * 0.003;
+            let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad + 0.02);
+            let route = plan_route(&field, &map, &space, start, goal, &config).unwrap();
+            // The first leg goes straight out (it may run on past the exit point when the
+            // next vertex lies on the same line: collinear points are merged).
+            let exit = route.points()[1] - route.points()[0];
+            assert!(
+                exit.norm() >= SLOT_EXIT_M - 0.006,
+                "{}: {exit:?}",
+                from.waypoint
+            );
+            assert!(
+                exit.dot(normal) / exit.norm() > 0.998,
+                "{}: {exit:?}",
+                from.waypoint
+            );
+            // Already out of the slot: no exit leg.
+            let out = from.pick_pose.position() + normal * (SLOT_EXIT_M + 0.01);
+            assert!(slot_to_leave(&field, Pose2::new(out.x, out.y, start.yaw_rad)).is_none());
+        }
     }
 
     #[test]

@@ -318,7 +318,14 @@ pub fn run(
                         let state = State::from_incoming(&list, Location::Start, 0.0);
                         if let (Some(policy), Some(nav)) = (planner.take(), navigator.take()) {
                             let actions = TaskActions::new(model.clone(), policy, state);
-                            mission = Some(Mission::new(MissionConfig::default(), nav, actions));
+                            mission = Some(Mission::new(
+                                MissionConfig {
+                                    exit_on_route_after_pick: drive == DrivePreset::Ours,
+                                    ..MissionConfig::default()
+                                },
+                                nav,
+                                actions,
+                            ));
                         }
                     }
                 }
