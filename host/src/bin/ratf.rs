@@ -14,6 +14,16 @@ use ratf_host::plot::FieldPlot;
 use ratf_host::sim::drive::{self, DriveReport, DriveTrace};
 use ratf_host::sim::scripts::Named;
 
+/// `println!` that ends the program quietly when standard output is closed (piped into
+/// `head`, say) instead of panicking: nobody is left to read the rest.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        if writeln!(std::io::stdout().lock(), $($arg)*).is_err() {
+            std::process::exit(0);
+        }
+    }};
+}
+
 /// ratf: the Robot@Factory 4.0 robot, on the robot or in simulation.
 #[derive(Debug, Parser)]
 #[command(version, about)]
