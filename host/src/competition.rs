@@ -21,19 +21,7 @@ use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
 use crate::planning::tasks::{self, MAX_PARTS, Model, PartState, Place, Policy, State};
-use crate::referee::protocol::SlotLetters;
-
-/// The server's four strings read one after the other, with when they were asked and
-/// answered (the robot's clock, µs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ServerSnapshot {
-    /// The answers to `IWP`, `OWP`, `MAP`, `MBP`, in that order.
-    pub areas: [SlotLetters; 4],
-    /// When the first of the four requests was sent, µs.
-    pub sent_us: u64,
-    /// When the last of the four answers arrived, µs.
-    pub answered_us: u64,
-}
+use crate::referee::snapshot::ServerSnapshot;
 
 /// What [`TaskActions::offer_snapshot`] did with a snapshot.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -385,6 +373,7 @@ mod tests {
     use crate::planning::tasks::{
         BranchAndBound, Location, Original, Rules, StraightLineTimes, Timing,
     };
+    use crate::referee::protocol::SlotLetters;
 
     fn model(round: u8) -> Model {
         let field = Field::competition();

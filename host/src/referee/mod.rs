@@ -7,3 +7,4 @@ pub mod mock;
 pub mod practice;
 pub mod protocol;
 pub mod server;
+pub mod snapshot;

@@ -8,7 +8,9 @@
 //!   (`competition::TaskActions`) and runs the [`Mission`] with our navigation or the
 //!   original's.
 //! - While the mission drives to a pick, the client reads `IWP`, `OWP`, `MAP`, `MBP` one
-//!   request at a time, a cycle every [`POLL_PERIOD_S`] at most, and hands every complete
+//!   request at a time, a cycle every [`POLL_PERIOD_S`] at most
+//!   (`referee::snapshot::SnapshotCycle`, which the robot's own loop uses the same way), and
+//!   hands every complete
 //!   snapshot to the planner, which re-plans from the server's strings (competition.md §6).
 //!   The robot never waits for them: a silent server only means planning from what it knows.
 //! - The world's part events are reported to the mock (`place`/`take`), so `IWP`, `OWP`,
@@ -24,7 +26,7 @@ use std::net::SocketAddr;
 
 use serde::Serialize;
 
-use crate::competition::{DrivePreset, RouteNavigator, ServerSnapshot, SnapshotUse, TaskActions};
+use crate::competition::{DrivePreset, RouteNavigator, SnapshotUse, TaskActions};
 use crate::config::Config;
 use crate::field::Field;
 use crate::field::PartColor;
@@ -33,10 +35,11 @@ use crate::mission::{Mission, MissionConfig, MissionEvent};
 use crate::planning::tasks::{
     BranchAndBound, Location, Model, Original, Policy, Rules, State, StraightLineTimes, Timing,
 };
-use crate::referee::client::{ClientError, RefereeClient, RetryPolicy};
+use crate::referee::client::{RefereeClient, RetryPolicy};
 use crate::referee::mock::{MockReferee, MockSettings, ServerSlot, round_parts};
-use crate::referee::protocol::{Reply, Request, SlotLetters, letters_to_string};
+use crate::referee::protocol::{Reply, Request, letters_to_string};
 use crate::referee::server::MockServer;
+use crate::referee::snapshot::SnapshotCycle;
 use crate::sim::harness::SimulatedRobot;
 use crate::sim::parts::{PartEvent, PartPlace};
 use crate::sim::world::Scenario;
@@ -265,7 +268,7 @@ pub fn run(
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut seen_collisions = 0;
     let mut last_batches = 0;
-    let mut snapshots = SnapshotCycle::default();
+    let mut snapshots = SnapshotCycle::new((POLL_PERIOD_S * 1e6) as u64);
 
     while !finished && (sim.now_us() as f64) * 1e-6 < ROUND_LIMIT_S {
         let now_us = sim.now_us();
@@ -474,79 +477,6 @@ pub fn run(
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
     })
-}
-
-/// The requests of one snapshot, in [`ServerSnapshot::areas`] order.
-const SNAPSHOT_REQUESTS: [Request; 4] = [
-    Request::IncomingWarehouse,
-    Request::OutgoingWarehouse,
-    Request::MachineA,
-    Request::MachineB,
-];
-
-/// Cycles through [`SNAPSHOT_REQUESTS`], one every [`POLL_PERIOD_S`] at most: the answers
-/// so far and when the cycle's first request was sent.
-#[derive(Clone, Copy, Debug, Default)]
-struct SnapshotCycle {
-    /// Answers received, in order.
-    areas: [SlotLetters; 4],
-    /// How many of them.
-    answered: usize,
-    /// When the cycle's first request was sent, µs.
-    sent_us: u64,
-    /// When the next cycle may begin, µs.
-    next_cycle_us: u64,
-}
-
-impl SnapshotCycle {
-    /// Forget the answers so far: the next request is `IWP` again.
-    fn restart(&mut self) {
-        self.answered = 0;
-    }
-
-    /// The request to send at `now_us` when none is outstanding: the cycle's next one, or
-    /// `IWP` once a new cycle is due (`None` until then).
-    fn request_due(&mut self, now_us: u64) -> Option<Request> {
-        if self.answered == 0 {
-            if now_us < self.next_cycle_us {
-                return None;
-            }
-            self.sent_us = now_us;
-            self.next_cycle_us = now_us + (POLL_PERIOD_S * 1e6) as u64;
-        }
-        SNAPSHOT_REQUESTS.get(self.answered).copied()
-    }
-
-    /// The end of the request `asked` at `now_us`: the complete snapshot after the fourth
-    /// answer. Anything but the expected strings (`STOP`, a timeout, an answer to an
-    /// abandoned cycle) starts the cycle over.
-    fn on_reply(
-        &mut self,
-        asked: Option<Request>,
-        result: Result<Reply, ClientError>,
-        now_us: u64,
-    ) -> Option<ServerSnapshot> {
-        let expected = SNAPSHOT_REQUESTS.get(self.answered).copied();
-        match (result, asked == expected) {
-            (Ok(Reply::Slots(letters)), true) => {
-                self.areas[self.answered] = letters;
-                self.answered += 1;
-            }
-            _ => {
-                self.restart();
-                return None;
-            }
-        }
-        if self.answered < SNAPSHOT_REQUESTS.len() {
-            return None;
-        }
-        self.restart();
-        Some(ServerSnapshot {
-            areas: self.areas,
-            sent_us: self.sent_us,
-            answered_us: now_us,
-        })
-    }
 }
 
 /// The full score of round `round`: 4, 6 or 8 points (competition.md §2).
@@ -759,46 +689,5 @@ mod tests {
         assert_eq!(report.timeouts, 0, "{report:?}");
         assert_eq!(report.server_disagreements, 1, "{report:?}");
         assert_eq!(told, 1);
-    }
-
-    #[test]
-    fn a_snapshot_is_four_answers_in_order_and_anything_else_starts_over() {
-        let letters = |text: &str| crate::referee::protocol::parse_letters(text).unwrap();
-        let mut cycle = SnapshotCycle::default();
-        let answer = |cycle: &mut SnapshotCycle, now_us: u64, reply: Reply| {
-            let request = cycle.request_due(now_us);
-            cycle.on_reply(request, Ok(reply), now_us)
-        };
-        assert_eq!(answer(&mut cycle, 0, Reply::Slots(letters("BBBB"))), None);
-        assert_eq!(answer(&mut cycle, 20, Reply::Stop), None);
-        // Started over: the next cycle waits for its period.
-        assert_eq!(cycle.request_due(100), None);
-        let period_us = (POLL_PERIOD_S * 1e6) as u64;
-        let texts = ["BXBB", "XBXX", "XXXX", "XXXX"];
-        let mut snapshot = None;
-        for (k, text) in texts.into_iter().enumerate() {
-            snapshot = answer(
-                &mut cycle,
-                period_us + k as u64,
-                Reply::Slots(letters(text)),
-            );
-        }
-        assert_eq!(
-            snapshot,
-            Some(ServerSnapshot {
-                areas: texts.map(letters),
-                sent_us: period_us,
-                answered_us: period_us + 3,
-            })
-        );
-        // A reply to something else is not taken for the expected strings.
-        let request = cycle.request_due(3 * period_us);
-        assert_eq!(request, Some(Request::IncomingWarehouse));
-        let late = cycle.on_reply(
-            Some(Request::MachineB),
-            Ok(Reply::Slots(letters("XXXX"))),
-            3 * period_us,
-        );
-        assert_eq!((late, cycle.answered), (None, 0));
     }
 }
