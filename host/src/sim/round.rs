@@ -9,7 +9,7 @@
 //!   original's.
 //! - While the mission drives to a pick, the client reads `IWP`, `OWP`, `MAP`, `MBP` one
 //!   request at a time, a cycle every [`POLL_PERIOD_S`] at most
-//!   (`referee::snapshot::SnapshotCycle`, which the robot's own loop uses the same way), and
+//!   (`referee::snapshot::SnapshotCycle`: pure, for the robot's own loop as well), and
 //!   hands every complete
 //!   snapshot to the planner, which re-plans from the server's strings (competition.md §6).
 //!   The robot never waits for them: a silent server only means planning from what it knows.
