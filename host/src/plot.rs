@@ -6,8 +6,8 @@
 
 use std::fmt::Write;
 
-use crate::field::Field;
-use crate::field::geometry::{Rect, Vec2};
+use ratf_core::field::Field;
+use ratf_core::field::geometry::{Rect, Vec2};
 
 /// Drawing scale, SVG pixels per metre.
 pub const PIXELS_PER_M: f64 = 500.0;

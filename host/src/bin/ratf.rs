@@ -7,12 +7,12 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use ratf_host::config::{Config, ConfigError};
-use ratf_host::field::Field;
-use ratf_host::field::OrientedRect;
+use ratf_core::config::{Config, ConfigError};
+use ratf_core::field::Field;
+use ratf_core::field::OrientedRect;
+use ratf_host::apps::drive::{self, DriveReport, DriveTrace};
+use ratf_host::apps::scripts::Named;
 use ratf_host::plot::FieldPlot;
-use ratf_host::sim::drive::{self, DriveReport, DriveTrace};
-use ratf_host::sim::scripts::Named;
 
 /// `println!` that ends the program quietly when standard output is closed (piped into
 /// `head`, say) instead of panicking: nobody is left to read the rest.
@@ -232,7 +232,7 @@ fn main() -> anyhow::Result<()> {
 }
 
 fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
-    use ratf_host::sim::nav_bench::{self, Preset, Summary};
+    use ratf_host::apps::nav_bench::{self, Preset, Summary};
     let config = load_config(args.bench.config.as_deref())?;
     let trips = nav_bench::round_trips();
     let mut without_shortcuts = config.clone();
@@ -492,9 +492,9 @@ fn plot_drive(config: &Config, report: &DriveReport, trace: &DriveTrace) -> Stri
 }
 
 fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
-    use ratf_host::referee::mock::MockSettings;
+    use ratf_core::referee::protocol::parse_letters;
     use ratf_host::referee::practice::{Practice, PracticeOptions};
-    use ratf_host::referee::protocol::parse_letters;
+    use ratf_sim::referee::MockSettings;
     use std::time::Duration;
 
     let config = load_config(args.config.as_deref())?;
@@ -550,7 +550,7 @@ fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
 }
 
 fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Result<()> {
-    use ratf_host::sim::loc_bench::{self, Metrics, nees_band};
+    use ratf_host::apps::loc_bench::{self, Metrics, nees_band};
     let config = load_config(args.config.as_deref())?;
     let started = Instant::now();
     let figures = loc_bench::run(&config, args.seeds, |condition, seed, ours, original| {
@@ -594,8 +594,8 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
 }
 
 fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
-    use ratf_host::sim::drive::PoseRecord;
-    use ratf_host::sim::round::{self, RoundEvent, RoundPolicy};
+    use ratf_host::apps::drive::PoseRecord;
+    use ratf_host::apps::round::{self, RoundEvent, RoundPolicy};
     let config = load_config(args.config.as_deref())?;
     let policy = match args.policy.as_str() {
         "ours" => RoundPolicy::Ours,
@@ -693,16 +693,16 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     }
     for &(color, x, y) in &report.final_parts {
         let fill = match color {
-            ratf_host::field::PartColor::Red => "#d03030",
-            ratf_host::field::PartColor::Green => "#30a040",
-            ratf_host::field::PartColor::Blue => "#3060d0",
+            ratf_core::field::PartColor::Red => "#d03030",
+            ratf_core::field::PartColor::Green => "#30a040",
+            ratf_core::field::PartColor::Blue => "#3060d0",
         };
         plot.filled(
             &[
-                ratf_host::field::geometry::Vec2::new(x - 0.03, y - 0.03),
-                ratf_host::field::geometry::Vec2::new(x + 0.03, y - 0.03),
-                ratf_host::field::geometry::Vec2::new(x + 0.03, y + 0.03),
-                ratf_host::field::geometry::Vec2::new(x - 0.03, y + 0.03),
+                ratf_core::field::geometry::Vec2::new(x - 0.03, y - 0.03),
+                ratf_core::field::geometry::Vec2::new(x + 0.03, y - 0.03),
+                ratf_core::field::geometry::Vec2::new(x + 0.03, y + 0.03),
+                ratf_core::field::geometry::Vec2::new(x - 0.03, y + 0.03),
             ],
             fill,
         );
@@ -743,7 +743,7 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
 }
 
 fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
-    use ratf_host::sim::round;
+    use ratf_host::apps::round;
     let config = load_config(args.bench.config.as_deref())?;
     let started = Instant::now();
     let rows = round::bench(&config, args.bench.seeds, args.machine_delay_s, |r| {

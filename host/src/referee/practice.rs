@@ -11,10 +11,10 @@ use std::net::SocketAddr;
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
-use super::mock::{Area, MockReferee, MockSettings, Phase, ServerSlot};
-use super::protocol::letters_to_string;
 use super::server::MockServer;
-use crate::field::PartColor;
+use ratf_core::field::PartColor;
+use ratf_core::referee::protocol::letters_to_string;
+use ratf_sim::referee::{Area, MockReferee, MockSettings, Phase, ServerSlot};
 
 /// How long one wait for a datagram lasts, so commands and timers are seen promptly.
 const SERVE_SLICE: Duration = Duration::from_millis(20);
@@ -223,8 +223,9 @@ fn stamp(now_us: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::referee::client::{RefereeClient, RetryPolicy};
-    use crate::referee::protocol::{Reply, Request};
+    use crate::referee::client::RefereeClient;
+    use ratf_core::referee::protocol::{Reply, Request};
+    use ratf_core::referee::tracker::RetryPolicy;
     use std::sync::mpsc;
 
     #[test]

@@ -13,7 +13,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::mock::MockReferee;
+use ratf_sim::referee::MockReferee;
 
 /// Largest request datagram read, bytes (requests are 3–4 letters).
 const MAX_DATAGRAM_BYTES: usize = 512;
@@ -199,9 +199,10 @@ fn micros_since(epoch: Instant) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::referee::client::{RefereeClient, RetryPolicy};
-    use crate::referee::mock::{Area, MockSettings, ServerSlot};
-    use crate::referee::protocol::{Reply, Request, parse_letters};
+    use crate::referee::client::RefereeClient;
+    use ratf_core::referee::protocol::{Reply, Request, parse_letters};
+    use ratf_core::referee::tracker::RetryPolicy;
+    use ratf_sim::referee::{Area, MockSettings, ServerSlot};
 
     const POLICY: RetryPolicy = RetryPolicy {
         first_timeout_us: 200_000,

@@ -1,0 +1,316 @@
+//! Our path follower for the holonomic base, with the docking approach.
+//!
+//! Per host tick, from the pose estimate moved on by the last command over the loop's lag
+//! (`navigation.lag_compensation_s`): project onto the route (forward only), take the
+//! along-track speed from the [`Profile`] under the acceleration limit, add a cross-track
+//! correction towards the path, and steer the heading with feedback on the
+//! [`HeadingPlan`] (inside its turn window aiming a little ahead of it; outside, the robot
+//! slows down while its heading lags the plan, so it never turns where it has no room). On
+//! the last segment the along-track speed also follows the braking curve and a
+//! proportional hold on the distance left, so the robot stops on the goal; it has arrived
+//! when its predicted stopping point is within `navigation.goal_tolerance_m`. The body
+//! twist is scaled as a whole to the wheel limit (direction kept,
+//! `Mecanum::limited_inverse`). In the docking approach the robot is already square to the
+//! face (the heading plan ends before it) and stops as soon as the box switch closes; at
+//! the goal it waits a few ticks for the switch before it counts as arrived by distance.
+
+use crate::config::{Config, NavigationConfig};
+use crate::control::profile::{HeadingPlan, Profile};
+use crate::control::route::Route;
+use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::kinematics::{BodyTwist, Mecanum};
+
+/// Where a follower is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// No route.
+    Idle,
+    /// Driving.
+    Following,
+    /// At the goal pose within the tolerances.
+    Arrived,
+    /// Stopped in the docking approach because the box switch closed.
+    Docked,
+}
+
+/// One tick's output.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FollowerCommand {
+    /// Body twist to command (robot frame).
+    pub twist: BodyTwist,
+    /// State after this tick.
+    pub status: Status,
+    /// Distance from the estimate to the route, m.
+    pub cross_track_m: f64,
+}
+
+impl FollowerCommand {
+    fn stopped(status: Status) -> Self {
+        Self {
+            twist: BodyTwist::default(),
+            status,
+            cross_track_m: 0.0,
+        }
+    }
+}
+
+/// A path follower: a route in, a twist per tick out. Pure: time is an argument.
+pub trait PathFollower {
+    /// Start following `route` now.
+    fn start(&mut self, route: Route);
+    /// One tick at `now_us` with the pose estimate and the box switch.
+    fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand;
+}
+
+/// Extra along-track speed that keeps the final approach moving against the wheels' dead
+/// zone, m/s. 0.015: the motor's 0.22 V dead zone × 2.19 (rad/s)/V × 0.03 m
+/// (`[motor]`, `[robot]`); it overshoots by at most 0.015 m/s × ~0.13 s of lag = 2 mm.
+const CREEP_M_S: f64 = 0.015;
+/// Heading error below which the along-track speed is not reduced, rad (1.1°: a 30 cm
+/// square turned 1.1° reaches 3 mm further out, well within the 20 mm the graph's rows
+/// leave next to the dividers).
+const HEADING_FREE_RAD: f64 = 0.02;
+/// Heading error beyond `HEADING_FREE_RAD` at which the along-track speed reaches zero, rad.
+const HEADING_STOP_RAD: f64 = 0.08;
+/// How far ahead of the heading plan the heading aims inside the turn window, m.
+const TURN_LEAD_M: f64 = 0.1;
+/// Host ticks a docking robot waits at rest on the goal for the switch before it counts as
+/// arrived by distance (3 × 20 ms: the telemetry delay with margin).
+const DOCK_SETTLE_TICKS: u32 = 3;
+/// Distance to the goal below which the creep speed fades out, m.
+const CREEP_FADE_M: f64 = 0.005;
+/// Nominal host period, s, for the first tick of a route (50 Hz).
+const NOMINAL_DT_S: f64 = 0.02;
+/// Extra length before the docking approach in which the switch already counts, m (the
+/// cross-track correction may take the projection a little short of it).
+const DOCK_SLACK_M: f64 = 0.01;
+
+/// Our follower.
+#[derive(Clone, Debug)]
+pub struct Follower {
+    config: NavigationConfig,
+    mecanum: Mecanum,
+    max_wheel_speed_rad_s: f64,
+    route: Option<(Route, HeadingPlan, Profile)>,
+    segment: usize,
+    speed_m_s: f64,
+    last_velocity: Vec2,
+    last_omega_rad_s: f64,
+    last_us: Option<u64>,
+    ticks_at_goal: u32,
+    status: Status,
+}
+
+impl Follower {
+    /// A follower with the limits of `config.navigation` and the wheel limit of
+    /// `config.robot`.
+    pub fn new(config: &Config) -> Self {
+        Self {
+            config: config.navigation.clone(),
+            mecanum: Mecanum::new(&config.robot),
+            max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
+            route: None,
+            segment: 0,
+            speed_m_s: 0.0,
+            last_velocity: Vec2::ZERO,
+            last_omega_rad_s: 0.0,
+            last_us: None,
+            ticks_at_goal: 0,
+            status: Status::Idle,
+        }
+    }
+
+    /// The route being followed.
+    pub fn route(&self) -> Option<&Route> {
+        self.route.as_ref().map(|(r, _, _)| r)
+    }
+
+    /// The along-track speed commanded last, m/s.
+    pub fn speed_m_s(&self) -> f64 {
+        self.speed_m_s
+    }
+}
+
+/// `world` (m/s, world frame) in the frame of a robot with yaw `yaw_rad`.
+pub fn to_body(world: Vec2, yaw_rad: f64) -> Vec2 {
+    world.rotated(-yaw_rad)
+}
+
+impl PathFollower for Follower {
+    fn start(&mut self, route: Route) {
+        let heading = HeadingPlan::new(&route, &self.config);
+        let profile = Profile::new(&route, &heading, &self.config);
+        self.route = Some((route, heading, profile));
+        self.segment = 0;
+        self.speed_m_s = 0.0;
+        self.last_velocity = Vec2::ZERO;
+        self.last_omega_rad_s = 0.0;
+        self.last_us = None;
+        self.ticks_at_goal = 0;
+        self.status = Status::Following;
+    }
+
+    fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand {
+        let dt_s = self
+            .last_us
+            .map_or(NOMINAL_DT_S, |t| now_us.saturating_sub(t) as f64 * 1e-6)
+            .clamp(0.0, 0.1);
+        self.last_us = Some(now_us);
+        let Some((route, heading, profile)) = &self.route else {
+            return FollowerCommand::stopped(Status::Idle);
+        };
+        if self.status != Status::Following {
+            return FollowerCommand::stopped(self.status);
+        }
+        let c = &self.config;
+        // Where the robot will be once this command takes effect: the estimate moved on by
+        // the last command over the loop's lag.
+        let position = pose.position() + self.last_velocity * c.lag_compensation_s;
+        let at = route.project(self.segment, position);
+        self.segment = at.segment;
+        let goal = route.goal();
+        let length = route.length_m();
+        let in_dock =
+            route.dock_length_m() > 0.0 && at.s_m >= length - route.dock_length_m() - DOCK_SLACK_M;
+        if in_dock && switch_pressed {
+            self.status = Status::Docked;
+            self.speed_m_s = 0.0;
+            self.last_velocity = Vec2::ZERO;
+            self.last_omega_rad_s = 0.0;
+            return FollowerCommand::stopped(Status::Docked);
+        }
+        // The heading the robot will have over the lag, against the plan.
+        let predicted_yaw = pose.yaw_rad + self.last_omega_rad_s * c.lag_compensation_s;
+        // Arrival: where the robot will coast to (the predicted pose) is on the goal.
+        let last_segment = at.segment + 2 == route.points().len();
+        let stop_here = last_segment
+            && (goal.position() - position).norm() < c.goal_tolerance_m
+            && wrap_angle(goal.yaw_rad - predicted_yaw).abs()
+                < c.goal_heading_tolerance_deg.to_radians();
+        if stop_here {
+            // In a docking approach the switch is the end and the distance the fallback: at
+            // the goal, wait a few ticks at rest for the switch (it closes ~5 mm short of the
+            // pick pose and its state arrives with the telemetry, `ratf_sim::parts::Gripper`).
+            self.ticks_at_goal += 1;
+            if route.dock_length_m() <= 0.0 || self.ticks_at_goal > DOCK_SETTLE_TICKS {
+                self.status = Status::Arrived;
+            }
+            self.speed_m_s = 0.0;
+            self.last_velocity = Vec2::ZERO;
+            self.last_omega_rad_s = 0.0;
+            return FollowerCommand::stopped(self.status);
+        }
+        self.ticks_at_goal = 0;
+
+        // Inside the turn window (where the robot can turn on the spot) the heading aims
+        // `TURN_LEAD_M` ahead of the plan, so a short window is turned at the full rate;
+        // before it, it holds the plan (the start heading).
+        let yaw_plan = heading.yaw_at(at.s_m);
+        let yaw_target = if at.s_m >= heading.from_m {
+            heading.yaw_at(at.s_m + TURN_LEAD_M)
+        } else {
+            yaw_plan
+        };
+        let yaw_error = wrap_angle(yaw_target - predicted_yaw);
+        // Outside the turn window the robot may not be turned: while it lags the plan,
+        // slow down so it finishes turning where there is room.
+        let lag_rad = wrap_angle(yaw_plan - predicted_yaw) * heading.turn_rad.signum();
+        let heading_factor =
+            (1.0 - (lag_rad.abs() - HEADING_FREE_RAD) / HEADING_STOP_RAD).clamp(0.0, 1.0);
+        let heading_factor = if lag_rad < 0.0 && at.s_m < heading.to_m {
+            1.0
+        } else {
+            heading_factor
+        };
+        let limit = profile.speed_limit_m_s(at.s_m) * heading_factor;
+        let mut along = limit.min(self.speed_m_s + c.max_accel_m_s2 * dt_s);
+        if last_segment {
+            // Stop on the goal: the braking curve on the predicted distance left, then a
+            // proportional hold (backing up if the prediction passed the goal).
+            let remaining = (goal.position() - position).dot(at.tangent);
+            // The creep fades out over the last `CREEP_FADE_M` so it cannot drive a limit
+            // cycle around the goal.
+            let creep = CREEP_M_S * (remaining.abs() / CREEP_FADE_M).min(1.0);
+            let hold = if remaining > 0.0 {
+                (2.0 * c.max_decel_m_s2 * remaining)
+                    .sqrt()
+                    .min(c.position_gain_per_s * remaining)
+                    + creep
+            } else {
+                (c.position_gain_per_s * remaining - creep).max(-c.dock_speed_m_s)
+            };
+            along = if remaining > 0.0 {
+                along.min(hold)
+            } else {
+                hold
+            };
+        }
+        let cross = at.point - position;
+        let mut correction = cross * c.cross_track_gain_per_s;
+        let cap = 0.5 * c.max_speed_m_s;
+        if correction.norm() > cap {
+            correction = correction * (cap / correction.norm());
+        }
+        let velocity = at.tangent * along + correction;
+        // Feedback on the leading target only: the lead is the anticipation (a feed-forward
+        // of the plan's rate on top would overshoot the goal heading).
+        let omega =
+            (c.heading_gain_per_s * yaw_error).clamp(-c.max_yaw_rate_rad_s, c.max_yaw_rate_rad_s);
+        // Rotate into the frame the robot will have over the lag, not the one it had.
+        let body = to_body(
+            velocity,
+            pose.yaw_rad + self.last_omega_rad_s * c.lag_compensation_s / 2.0,
+        );
+        let limited = self.mecanum.limited_inverse(
+            BodyTwist::new(body.x, body.y, omega),
+            self.max_wheel_speed_rad_s,
+        );
+        self.speed_m_s = (along * limited.scale).max(0.0);
+        self.last_velocity = velocity * limited.scale;
+        self.last_omega_rad_s = limited.twist.omega_rad_s;
+        FollowerCommand {
+            twist: limited.twist,
+            status: Status::Following,
+            cross_track_m: cross.norm(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn idle_without_route_and_body_frame_rotation() {
+        let mut f = Follower::new(&Config::default());
+        let out = f.update(0, Pose2::default(), false);
+        assert_eq!(out.status, Status::Idle);
+        assert_eq!(out.twist, BodyTwist::default());
+        let b = to_body(Vec2::new(1.0, 0.0), std::f64::consts::FRAC_PI_2);
+        assert!((b.x).abs() < 1e-12 && (b.y + 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn first_tick_accelerates_within_the_limit_and_stops_on_the_switch() {
+        let config = Config::default();
+        let mut f = Follower::new(&config);
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0)],
+            0.0,
+            0.0,
+            config.navigation.dock_length_m,
+        )
+        .unwrap();
+        f.start(route);
+        let out = f.update(1_000, Pose2::default(), false);
+        assert_eq!(out.status, Status::Following);
+        let want = config.navigation.max_accel_m_s2 * NOMINAL_DT_S;
+        assert!((out.twist.vx_m_s - want).abs() < 1e-12, "{out:?}");
+        // The switch closes away from the dock: ignored.
+        let out = f.update(21_000, Pose2::new(0.5, 0.0, 0.0), true);
+        assert_eq!(out.status, Status::Following);
+        let out = f.update(41_000, Pose2::new(0.95, 0.0, 0.0), true);
+        assert_eq!(out.status, Status::Docked);
+        assert_eq!(out.twist, BodyTwist::default());
+    }
+}

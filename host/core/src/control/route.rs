@@ -1,0 +1,613 @@
+//! A route: the polyline a follower drives, with arc lengths, the heading to reach and an
+//! optional final docking segment; and how routes to a slot are planned.
+
+use crate::config::NavigationConfig;
+use crate::field::geometry::{Pose2, Segment, Vec2, wrap_angle};
+use crate::field::{Field, Slot};
+use crate::planning::graph::{PlanError, RoadMap, merge_collinear};
+use crate::planning::shortcuts::FreeSpace;
+
+/// Tolerance for merging collinear route points, m (1 mm: far below the follower's error).
+pub const MERGE_TOLERANCE_M: f64 = 0.001;
+
+/// A polyline from the start to the goal, with the goal heading.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Route {
+    points: Vec<Vec2>,
+    cumulative_m: Vec<f64>,
+    start_yaw_rad: f64,
+    goal_yaw_rad: f64,
+    dock_length_m: f64,
+    turn_window_m: Option<(f64, f64)>,
+}
+
+/// Where a position projects onto a route.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    /// Index of the segment (points `segment` → `segment + 1`).
+    pub segment: usize,
+    /// Arc length from the start to the projected point, m.
+    pub s_m: f64,
+    /// The projected point, m.
+    pub point: Vec2,
+    /// Unit direction of the segment.
+    pub tangent: Vec2,
+}
+
+impl Route {
+    /// A route through `points` (at least two, finite, consecutive ones distinct), starting
+    /// with heading `start_yaw_rad` and ending with `goal_yaw_rad`; the last `dock_length_m`
+    /// of it is a docking approach. `None` when the points do not make a route.
+    pub fn new(
+        points: Vec<Vec2>,
+        start_yaw_rad: f64,
+        goal_yaw_rad: f64,
+        dock_length_m: f64,
+    ) -> Option<Self> {
+        if points.len() < 2
+            || points.iter().any(|p| !p.is_finite())
+            || points.windows(2).any(|w| w[0].distance(w[1]) < 1e-9)
+            || !start_yaw_rad.is_finite()
+            || !goal_yaw_rad.is_finite()
+        {
+            return None;
+        }
+        let mut cumulative_m = vec![0.0];
+        for w in points.windows(2) {
+            let last = cumulative_m.last().copied().unwrap_or(0.0);
+            cumulative_m.push(last + w[0].distance(w[1]));
+        }
+        Some(Self {
+            points,
+            cumulative_m,
+            start_yaw_rad,
+            goal_yaw_rad,
+            dock_length_m: dock_length_m.max(0.0),
+            turn_window_m: None,
+        })
+    }
+
+    /// This route with the robot allowed to turn only between arc lengths `from_m` and
+    /// `to_m` (clamped to the route).
+    pub fn with_turn_window(mut self, from_m: f64, to_m: f64) -> Self {
+        let length = self.length_m();
+        let from_m = from_m.clamp(0.0, length);
+        self.turn_window_m = Some((from_m, to_m.clamp(from_m, length)));
+        self
+    }
+
+    /// Where the robot may turn, as arc lengths (m), if the planner said.
+    pub fn turn_window_m(&self) -> Option<(f64, f64)> {
+        self.turn_window_m
+    }
+
+    /// The point at arc length `s_m` (clamped to the route).
+    pub fn point_at(&self, s_m: f64) -> Vec2 {
+        let s = s_m.clamp(0.0, self.length_m());
+        let i = self
+            .cumulative_m
+            .windows(2)
+            .position(|w| s <= w[1])
+            .unwrap_or(self.points.len() - 2);
+        self.points[i] + self.tangent(i) * (s - self.cumulative_m[i])
+    }
+
+    /// The points.
+    pub fn points(&self) -> &[Vec2] {
+        &self.points
+    }
+
+    /// Total length, m.
+    pub fn length_m(&self) -> f64 {
+        self.cumulative_m.last().copied().unwrap_or(0.0)
+    }
+
+    /// Arc length at point `index`, m.
+    pub fn s_at_point_m(&self, index: usize) -> f64 {
+        self.cumulative_m.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// The final pose.
+    pub fn goal(&self) -> Pose2 {
+        let p = self.points[self.points.len() - 1];
+        Pose2::new(p.x, p.y, self.goal_yaw_rad)
+    }
+
+    /// The heading at the start, rad.
+    pub fn start_yaw_rad(&self) -> f64 {
+        self.start_yaw_rad
+    }
+
+    /// Length of the final docking approach, m (0 = none).
+    pub fn dock_length_m(&self) -> f64 {
+        self.dock_length_m
+    }
+
+    /// Unit direction of segment `index`.
+    pub fn tangent(&self, index: usize) -> Vec2 {
+        let i = index.min(self.points.len() - 2);
+        let d = self.points[i + 1] - self.points[i];
+        d * (1.0 / d.norm())
+    }
+
+    /// Turn angle at interior point `index` (1..len−1), rad in [0, π].
+    pub fn turn_angle_rad(&self, index: usize) -> f64 {
+        if index == 0 || index + 1 >= self.points.len() {
+            return 0.0;
+        }
+        let a = self.tangent(index - 1);
+        let b = self.tangent(index);
+        a.cross(b).atan2(a.dot(b)).abs()
+    }
+
+    /// Project `p` onto segment `index` (clamped to the segment).
+    pub fn project_on(&self, index: usize, p: Vec2) -> Projection {
+        let i = index.min(self.points.len() - 2);
+        let point = Segment::new(self.points[i], self.points[i + 1]).closest_point(p);
+        Projection {
+            segment: i,
+            s_m: self.cumulative_m[i] + self.points[i].distance(point),
+            point,
+            tangent: self.tangent(i),
+        }
+    }
+
+    /// Project `p`, searching forward from segment `hint` only (progress never goes back, so
+    /// a U-shaped route is not short-circuited): the next segment is taken when it is at
+    /// least as close as the current one.
+    pub fn project(&self, hint: usize, p: Vec2) -> Projection {
+        let mut best = self.project_on(hint, p);
+        while best.segment + 2 < self.points.len() {
+            let next = self.project_on(best.segment + 1, p);
+            let at_end = best.s_m >= self.cumulative_m[best.segment + 1] - 1e-9;
+            if at_end || next.point.distance(p) <= best.point.distance(p) {
+                best = next;
+            } else {
+                break;
+            }
+        }
+        best
+    }
+}
+
+/// The points from the graph into `slot`: the graph path to the slot's leaf without the
+/// leaf itself and without the vertices that lie closer to the slot's face than the
+/// pre-dock point (the original's leaves sit nearer the plate than our pick pose), then
+/// the pre-dock point `dock_length_m` behind the pick pose, then the pick pose.
+fn approach(mut graph_points: Vec<Vec2>, slot: &Slot, dock_length_m: f64) -> Vec<Vec2> {
+    let normal = Vec2::from_angle(slot.face_normal_rad);
+    let pick = slot.pick_pose.position();
+    let pre_dock = pick + normal * dock_length_m;
+    let depth = |p: Vec2| (p - slot.plate_face_center).dot(normal);
+    graph_points.pop();
+    while graph_points.len() > 1
+        && graph_points
+            .last()
+            .is_some_and(|&p| depth(p) < depth(pre_dock) - MERGE_TOLERANCE_M)
+    {
+        graph_points.pop();
+    }
+    graph_points.push(pre_dock);
+    graph_points.push(pick);
+    graph_points
+}
+
+/// How far straight out of a slot the robot goes before it moves sideways or turns, m.
+/// 0.08: the carried part (0.06 m deep) and the gripper clear the 0.07 m dividers.
+pub const SLOT_EXIT_M: f64 = 0.08;
+
+/// Across-the-face offset within which a robot counts as standing in a slot's approach, m
+/// (the slot's capture width, `ratf_sim::parts`).
+const IN_SLOT_ACROSS_M: f64 = 0.02;
+
+/// The slot whose approach the robot at `pose` stands in, facing it, closer to its face
+/// than [`SLOT_EXIT_M`] (just docked or just released), if any.
+fn slot_to_leave(field: &Field, pose: Pose2) -> Option<&Slot> {
+    field.slots().find(|slot| {
+        let normal = Vec2::from_angle(slot.face_normal_rad);
+        let offset = pose.position() - slot.pick_pose.position();
+        let out = offset.dot(normal);
+        offset.cross(normal).abs() < IN_SLOT_ACROSS_M
+            && (-IN_SLOT_ACROSS_M..SLOT_EXIT_M - IN_SLOT_ACROSS_M).contains(&out)
+            && wrap_angle(pose.yaw_rad - slot.pick_pose.yaw_rad).abs() < IN_SLOT_MAX_YAW_RAD
+    })
+}
+
+/// Heading error within which a robot in a slot's approach counts as facing it, rad (10°).
+const IN_SLOT_MAX_YAW_RAD: f64 = 0.175;
+
+/// Drop consecutive points closer than [`MERGE_TOLERANCE_M`] (keeping the last one).
+fn dedup(points: Vec<Vec2>) -> Vec<Vec2> {
+    let mut out: Vec<Vec2> = Vec::with_capacity(points.len());
+    for p in points {
+        if out
+            .last()
+            .is_some_and(|q| q.distance(p) < MERGE_TOLERANCE_M)
+        {
+            out.pop();
+        }
+        out.push(p);
+    }
+    out
+}
+
+/// The turn ends this far before the free stretch does, m: the heading lags its plan by
+/// about the loop's lag (0.12 s) at up to 0.4 m/s.
+const TURN_END_INSET_M: f64 = 0.05;
+
+/// Step of the search for a stretch where the robot can turn, m.
+const TURN_SEARCH_STEP_M: f64 = 0.01;
+
+/// Where on `route` the robot turns: the longest stretch between `rotate_after_m` from the
+/// start and `align_before_m` from the end along which it can turn on the spot (its swept
+/// disc is free). If there is none, the most open point of that range (the robot then
+/// turns there nearly in place, the follower slowing down until the heading is right).
+pub fn turn_window(route: &Route, space: &FreeSpace, config: &NavigationConfig) -> (f64, f64) {
+    let length = route.length_m();
+    let (lo, hi) = if length > config.rotate_after_m + config.align_before_m {
+        (config.rotate_after_m, length - config.align_before_m)
+    } else {
+        (length / 3.0, 2.0 * length / 3.0)
+    };
+    let steps = ((hi - lo) / TURN_SEARCH_STEP_M).ceil().max(1.0) as usize;
+    let samples: Vec<f64> = (0..=steps)
+        .map(|k| lo + (hi - lo) * k as f64 / steps as f64)
+        .collect();
+    let mut best: Option<(f64, f64)> = None;
+    let mut run_start: Option<f64> = None;
+    for (k, &s) in samples.iter().enumerate() {
+        let free = space.can_turn_at(route.point_at(s));
+        if free && run_start.is_none() {
+            run_start = Some(s);
+        }
+        let run_ends = !free || k + 1 == samples.len();
+        if let (true, Some(from)) = (run_ends, run_start) {
+            let to = if free { s } else { samples[k - 1] };
+            if best.is_none_or(|(a, b)| to - from > b - a) {
+                best = Some((from, to));
+            }
+            run_start = None;
+        }
+    }
+    // End the turn a little inside the free stretch: the heading lags its plan.
+    let best = best.map(|(a, b)| (a, (b - TURN_END_INSET_M).max(a + (b - a) / 2.0)));
+    best.unwrap_or_else(|| {
+        let open = samples
+            .iter()
+            .copied()
+            .max_by(|a, b| {
+                space
+                    .clearance_m(route.point_at(*a))
+                    .total_cmp(&space.clearance_m(route.point_at(*b)))
+            })
+            .unwrap_or(lo);
+        (open, open)
+    })
+}
+
+/// Our route from `start` to `slot`'s pick pose: the current position, straight out of the
+/// slot the robot stands in if any ([`SLOT_EXIT_M`]), the nearest
+/// non-task vertex reachable in a straight line, Dijkstra to the slot, the straight docking
+/// approach, collinear points merged; with `config.shortcuts`, shortcuts (free at the start
+/// and goal headings) everywhere except on the docking segment; and the stretch where the
+/// robot turns ([`turn_window`]).
+pub fn plan_route(
+    field: &Field,
+    map: &RoadMap,
+    space: &FreeSpace,
+    start: Pose2,
+    slot: &Slot,
+    config: &NavigationConfig,
+) -> Result<Route, PlanError> {
+    let mut points = vec![start.position()];
+    // Standing in a slot, first straight out of it (never sideways between its dividers).
+    if let Some(docked) = slot_to_leave(field, start) {
+        let exit =
+            docked.pick_pose.position() + Vec2::from_angle(docked.face_normal_rad) * SLOT_EXIT_M;
+        points.push(exit);
+    }
+    let leave_from = points.last().copied().unwrap_or(start.position());
+    let first = map.start_vertex(field, leave_from, 0.0)?;
+    let path = map.shortest_path(first, slot.waypoint)?;
+    points.extend(map.positions(&path));
+    let points = approach(points, slot, config.dock_length_m);
+    let mut points = merge_collinear(&dedup(points), MERGE_TOLERANCE_M);
+    if config.shortcuts && points.len() > 2 {
+        let pick = points.pop().unwrap_or(start.position());
+        let mut cut = space.shortcut(&points, &[start.yaw_rad, slot.pick_pose.yaw_rad]);
+        cut.push(pick);
+        points = merge_collinear(&cut, MERGE_TOLERANCE_M);
+    }
+    let windowed = |points: Vec<Vec2>| {
+        let route = Route::new(
+            points,
+            start.yaw_rad,
+            slot.pick_pose.yaw_rad,
+            config.dock_length_m,
+        )?;
+        let (from_m, to_m) = turn_window(&route, space, config);
+        Some(route.with_turn_window(from_m, to_m))
+    };
+    let mut route = windowed(points).ok_or(PlanError::NoStartVertex(start.x, start.y))?;
+    // Squaring one segment may move the turn window; a few rounds settle it.
+    for _ in 0..MAX_SQUARING_ROUNDS {
+        let Some(points) = square_off_blocked_segment(&route, space) else {
+            break;
+        };
+        match windowed(points) {
+            Some(squared) => route = squared,
+            None => break,
+        }
+    }
+    Ok(route)
+}
+
+/// Rounds of [`square_off_blocked_segment`] per route (each fixes one segment).
+const MAX_SQUARING_ROUNDS: usize = 3;
+
+/// The headings the robot holds on the part of segment `index` of `route` outside its turn
+/// window, with the stretch each applies to: the start heading before the window, the goal
+/// heading after it.
+fn held_stretches(route: &Route, index: usize) -> Vec<(Vec2, Vec2, f64)> {
+    let (s0, s1) = (route.s_at_point_m(index), route.s_at_point_m(index + 1));
+    let (from_m, to_m) = route.turn_window_m().unwrap_or((0.0, route.length_m()));
+    let mut stretches = Vec::new();
+    if s0 < from_m {
+        stretches.push((
+            route.point_at(s0),
+            route.point_at(s1.min(from_m)),
+            route.start_yaw_rad(),
+        ));
+    }
+    if s1 > to_m {
+        stretches.push((
+            route.point_at(s0.max(to_m)),
+            route.point_at(s1),
+            route.goal().yaw_rad,
+        ));
+    }
+    stretches
+}
+
+/// A graph edge may be diagonal while the robot holds a heading square to the field; its
+/// square body is then wider across the edge than the corridor the edge was drawn for
+/// (a 30 cm square moving at 45° sweeps 42 cm). Finds the first segment (docking
+/// approach excluded) whose held-heading stretch touches an obstacle (with no margin: the
+/// graph's rows themselves pass dividers closer than the margin) and replaces it by
+/// the two axis-parallel legs through one of its corners, if both legs are free at the
+/// start and goal headings (with the space's margin if possible, else with none). `None` when every segment is free or no corner helps.
+fn square_off_blocked_segment(route: &Route, space: &FreeSpace) -> Option<Vec<Vec2>> {
+    let points = route.points();
+    let last = points.len().saturating_sub(2);
+    let yaws = [route.start_yaw_rad(), route.goal().yaw_rad];
+    (0..last).find_map(|i| {
+        let blocked = held_stretches(route, i)
+            .iter()
+            .any(|&(a, b, yaw)| !space.segment_is_free_with_margin(a, b, &[yaw], 0.0));
+        if !blocked {
+            return None;
+        }
+        let (a, b) = (points[i], points[i + 1]);
+        let corners = [Vec2::new(b.x, a.y), Vec2::new(a.x, b.y)]
+            .into_iter()
+            .filter(|&c| c.distance(a) > MERGE_TOLERANCE_M && c.distance(b) > MERGE_TOLERANCE_M);
+        let free = |c: Vec2, margin_m: f64| {
+            space.segment_is_free_with_margin(a, c, &yaws, margin_m)
+                && space.segment_is_free_with_margin(c, b, &yaws, margin_m)
+        };
+        // Prefer the configured margin; without it the legs still keep the body off every
+        // obstacle, where the diagonal did not.
+        corners
+            .clone()
+            .find(|&c| free(c, space.margin_m()))
+            .or_else(|| corners.clone().find(|&c| free(c, 0.0)))
+            .map(|corner| {
+                let mut squared = points.to_vec();
+                squared.insert(i + 1, corner);
+                squared
+            })
+    })
+}
+
+/// Length of the original's straight final leg into a slot, m. 0.10: about its leaf edges
+/// into the warehouses (0.105 m to 50–53, 0.14 m to 62–65; original-system.md §6.1), fixed
+/// so the original's routes do not depend on our `navigation.dock_length_m`.
+pub const ORIGINAL_APPROACH_M: f64 = 0.10;
+
+/// The original's route (original-system.md §6.2) to the same goal: start at the nearest
+/// vertex of all (task leaves included), Dijkstra, the same approach into the slot as ours
+/// (the original's leaves are not our pick poses), consecutive segments merged only when
+/// their unit directions are exactly equal. Its goal heading is that of the last segment.
+pub fn plan_original_route(
+    map: &RoadMap,
+    start: Pose2,
+    slot: &Slot,
+    dock_length_m: f64,
+) -> Result<Route, PlanError> {
+    let first = map
+        .graph()
+        .nearest(start.position())
+        .ok_or(PlanError::NoStartVertex(start.x, start.y))?;
+    let path = map.shortest_path(first, slot.waypoint)?;
+    let points = dedup(approach(map.positions(&path), slot, dock_length_m));
+    let mut trimmed: Vec<Vec2> = Vec::with_capacity(points.len());
+    for p in points {
+        if trimmed.len() >= 2 {
+            let a = trimmed[trimmed.len() - 2];
+            let b = trimmed[trimmed.len() - 1];
+            let u = (b - a) * (1.0 / (b - a).norm());
+            let v = (p - b) * (1.0 / (p - b).norm());
+            if u == v {
+                trimmed.pop();
+            }
+        }
+        trimmed.push(p);
+    }
+    if trimmed.len() < 2 {
+        trimmed.insert(0, start.position());
+    }
+    let n = trimmed.len();
+    let goal_yaw = (trimmed[n - 1] - trimmed[n - 2]).angle();
+    Route::new(trimmed, start.yaw_rad, goal_yaw, 0.0)
+        .ok_or(PlanError::NoStartVertex(start.x, start.y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::SlotKind;
+    use crate::field::WaypointGraph;
+    use crate::field::waypoints::WaypointId;
+    use crate::planning::shortcuts::Footprint;
+
+    #[test]
+    fn routes_end_square_at_every_pick_pose_from_the_start() {
+        let field = Field::competition();
+        let map = RoadMap::new(WaypointGraph::original());
+        let config = NavigationConfig::default();
+        let start = field.start_pose();
+        let footprint = Footprint {
+            length_m: 0.30,
+            width_m: 0.30,
+            carrying: false,
+        };
+        let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+        for slot in field.slots() {
+            let route = plan_route(&field, &map, &space, start, slot, &config).unwrap();
+            let (from, to) = route.turn_window_m().unwrap();
+            assert!(from <= to && to <= route.length_m());
+            let n = route.points().len();
+            assert_eq!(route.points()[n - 1], slot.pick_pose.position());
+            // The last segment is the docking approach: dock_length_m long, along the face
+            // normal.
+            let last = route.points()[n - 1] - route.points()[n - 2];
+            assert!(
+                last.norm() >= config.dock_length_m - 1e-9,
+                "{}",
+                slot.waypoint
+            );
+            assert!(
+                wrap_angle(last.angle() - slot.pick_pose.yaw_rad).abs() < 1e-9,
+                "slot {} approached at {}",
+                slot.waypoint,
+                last.angle()
+            );
+            let original = plan_original_route(&map, start, slot, config.dock_length_m).unwrap();
+            assert!(
+                wrap_angle(original.goal().yaw_rad - slot.pick_pose.yaw_rad).abs() < 1e-9,
+                "original into {}",
+                slot.waypoint
+            );
+        }
+    }
+
+    #[test]
+    fn the_held_headings_keep_the_body_off_every_obstacle_between_any_two_slots() {
+        // Regression: from machine B's input row to its output 55 the graph's diagonal edge
+        // 4 → 30, driven at the goal heading 180°, grazed a divider of machine B.
+        let field = Field::competition();
+        let map = RoadMap::new(field.waypoints().clone());
+        let config = NavigationConfig::default();
+        let mut checked = 0;
+        for carrying in [false, true] {
+            let footprint = Footprint {
+                length_m: 0.30,
+                width_m: 0.30,
+                carrying,
+            };
+            let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+            // Carrying, the robot comes from a pick slot and goes to a drop slot; empty,
+            // the other way round.
+            let is_drop = |s: &Slot| matches!(s.kind, SlotKind::Outgoing | SlotKind::MachineInput);
+            for from in field.slots().filter(|s| is_drop(s) != carrying) {
+                // Where the robot stands after backing out of `from`.
+                let normal = Vec2::from_angle(from.face_normal_rad);
+                let p = from.pick_pose.position() + normal * 0.08;
+                let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad);
+                // What the rules make the robot carry out of a machine: from A (at −x) to
+                // B's input (at +x) or the outgoing warehouse; from B only to the outgoing.
+                let allowed = |to: &&Slot| {
+                    let out_of_machine = carrying && from.kind == SlotKind::MachineOutput;
+                    is_drop(to) == carrying
+                        && (!out_of_machine
+                            || to.kind == SlotKind::Outgoing
+                            || (from.box_center.x < 0.0 && to.box_center.x > 0.0))
+                };
+                for to in field.slots().filter(allowed) {
+                    let route = plan_route(&field, &map, &space, start, to, &config).unwrap();
+                    for i in 0..route.points().len() - 2 {
+                        for (a, b, yaw) in held_stretches(&route, i) {
+                            assert!(
+                                space.segment_is_free_with_margin(a, b, &[yaw], 0.0),
+                                "{} → {} (carrying: {carrying}): segment {i} {a:?} → {b:?} at {yaw}",
+                                from.waypoint,
+                                to.waypoint
+                            );
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 400, "{checked}");
+    }
+
+    #[test]
+    fn from_inside_a_slot_the_route_first_leaves_it_straight() {
+        let field = Field::competition();
+        let map = RoadMap::new(field.waypoints().clone());
+        let config = NavigationConfig::default();
+        let footprint = Footprint {
+            length_m: 0.30,
+            width_m: 0.30,
+            carrying: true,
+        };
+        let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+        let goal = field.slot_for_waypoint(WaypointId(62)).unwrap();
+        for from in field.slots().filter(|s| s.waypoint != goal.waypoint) {
+            let normal = Vec2::from_angle(from.face_normal_rad);
+            // Docked a little short of the pick pose and a few millimetres off its axis.
+            let across = Vec2::from_angle(from.face_normal_rad + std::f64::consts::FRAC_PI_2);
+            let p = from.pick_pose.position() + normal * 0.004 + across * 0.003;
+            let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad + 0.02);
+            let route = plan_route(&field, &map, &space, start, goal, &config).unwrap();
+            // The first leg goes straight out (it may run on past the exit point when the
+            // next vertex lies on the same line: collinear points are merged).
+            let exit = route.points()[1] - route.points()[0];
+            assert!(
+                exit.norm() >= SLOT_EXIT_M - 0.006,
+                "{}: {exit:?}",
+                from.waypoint
+            );
+            assert!(
+                exit.dot(normal) / exit.norm() > 0.998,
+                "{}: {exit:?}",
+                from.waypoint
+            );
+            // Already out of the slot: no exit leg.
+            let out = from.pick_pose.position() + normal * (SLOT_EXIT_M + 0.01);
+            assert!(slot_to_leave(&field, Pose2::new(out.x, out.y, start.yaw_rad)).is_none());
+        }
+    }
+
+    #[test]
+    fn projection_progresses_along_a_u_turn() {
+        let p = |x: f64, y: f64| Vec2::new(x, y);
+        let route = Route::new(
+            vec![p(0.0, 0.0), p(0.5, 0.0), p(0.5, 0.1), p(0.0, 0.1)],
+            0.0,
+            0.0,
+            0.0,
+        )
+        .unwrap();
+        // Near the start, the return leg (0.1 m away) must not capture the projection.
+        let at = route.project(0, p(0.1, 0.04));
+        assert_eq!(at.segment, 0);
+        assert!((at.s_m - 0.1).abs() < 1e-12);
+        let later = route.project(1, p(0.3, 0.09));
+        assert_eq!(later.segment, 2);
+        assert!((later.s_m - 0.8).abs() < 1e-9);
+        assert!((route.turn_angle_rad(1) - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!(Route::new(vec![p(0.0, 0.0)], 0.0, 0.0, 0.0).is_none());
+    }
+}

@@ -1,0 +1,453 @@
+//! [`Localiser`]: our estimator (model in the parent module's doc).
+
+use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix};
+
+use super::beacons::{Expected, extract};
+use super::ekf::{BIAS, EkfState, Observation, StepInput, THETA, UpdateOutcome, X, Y};
+use super::gyro::GyroIntegrator;
+use super::history::{History, Step};
+use super::{Health, PoseEstimator, ScanReport};
+use crate::config::{LocalisationConfig, RobotConfig};
+use crate::drivers::imu::ImuSample;
+use crate::drivers::x4::scan::Scan;
+use crate::field::geometry::{Pose2, Vec2};
+use crate::field::{Beacon, Field};
+use crate::odometry::BodyIncrement;
+
+/// The beacon EKF with gyro fusion, gating, de-skew and late-scan re-application.
+#[derive(Clone, Debug)]
+pub struct Localiser {
+    config: LocalisationConfig,
+    gyro_noise_density: f64,
+    mount: Pose2,
+    beacons: [Beacon; 4],
+    history: History,
+    gyro: GyroIntegrator,
+    health: Health,
+}
+
+impl Localiser {
+    /// A localiser at `pose` at `time_us`, for the robot's lidar mount and gyro noise and
+    /// the field's beacons. The gyro bias starts at 0 with
+    /// `config.initial_gyro_bias_std_rad_s`.
+    pub fn new(
+        config: &LocalisationConfig,
+        robot: &RobotConfig,
+        field: &Field,
+        pose: Pose2,
+        time_us: u64,
+    ) -> Self {
+        let bias_std = config.initial_gyro_bias_std_rad_s;
+        let state = EkfState::new(pose, 0.0, bias_std * bias_std, config);
+        let mut health = Health {
+            time_us,
+            gyro_bias_rad_s: Some(0.0),
+            ..Health::default()
+        };
+        health.set_covariance(&pose_covariance(&state));
+        Self {
+            config: config.clone(),
+            gyro_noise_density: robot.imu.gyro_noise_density_rad_s_sqrt_hz,
+            mount: Pose2::new(
+                robot.lidar_x_m,
+                robot.lidar_y_m,
+                robot.lidar_yaw_deg.to_radians(),
+            ),
+            beacons: *field.beacons(),
+            history: History::new(state, time_us, config.history_steps),
+            gyro: GyroIntegrator::new(),
+            health,
+        }
+    }
+
+    /// The full state (pose and gyro bias) at the latest odometry step.
+    pub fn state(&self) -> &EkfState {
+        &self.history.latest().state
+    }
+
+    /// Set the gyro bias estimate (e.g. from a start-up estimate while still) with its
+    /// standard deviation, rad/s.
+    pub fn set_gyro_bias(&mut self, bias_rad_s: f64, std_rad_s: f64) {
+        let mut state = self.history.latest().state;
+        state.mean[BIAS] = bias_rad_s;
+        for i in 0..4 {
+            state.covariance[(i, BIAS)] = 0.0;
+            state.covariance[(BIAS, i)] = 0.0;
+        }
+        state.covariance[(BIAS, BIAS)] = std_rad_s * std_rad_s;
+        let time_us = self.history.latest().time_us;
+        self.history = History::new(state, time_us, self.config.history_steps);
+    }
+
+    fn refresh_health(&mut self) {
+        let latest = self.history.latest();
+        self.health.time_us = latest.time_us;
+        self.health.gyro_bias_rad_s = Some(latest.state.mean[BIAS]);
+        let p = pose_covariance(&latest.state);
+        self.health.set_covariance(&p);
+    }
+
+    /// Scan points de-skewed into the lidar frame at `reference` (the pose of the robot
+    /// there), each point moved with the predicted motion between its time and then.
+    fn deskewed_points(&self, scan: &Scan, reference: Pose2) -> Vec<Vec2> {
+        let lidar_ref = reference.compose(self.mount);
+        scan.points
+            .iter()
+            .map(|p| {
+                let robot = self.history.pose_at(scan.stamp_us + p.time_offset_us);
+                let world = robot
+                    .compose(self.mount)
+                    .transform_point(Vec2::from_angle(p.angle_rad) * p.range_m);
+                lidar_ref.inverse_transform_point(world)
+            })
+            .collect()
+    }
+
+    /// Where each beacon should be, in the lidar frame of `state`, with a search radius
+    /// grown by the predicted position's uncertainty (√(σx² + σy² + d²σθ²)), capped at
+    /// `max_search_radius_m`.
+    fn expected_beacons(&self, state: &EkfState) -> Vec<Expected> {
+        let lidar = state.pose().compose(self.mount);
+        let p = &state.covariance;
+        self.beacons
+            .iter()
+            .map(|b| {
+                let centre = lidar.inverse_transform_point(b.circle.center);
+                let sigma = (p[(X, X)] + p[(Y, Y)] + centre.dot(centre) * p[(THETA, THETA)])
+                    .max(0.0)
+                    .sqrt();
+                Expected {
+                    beacon: b.index,
+                    centre,
+                    search_radius_m: (self.config.association_radius_m
+                        + self.config.association_sigmas * sigma)
+                        .min(self.config.max_search_radius_m),
+                }
+            })
+            .collect()
+    }
+
+    /// The covariance, in (range, bearing), that the odometry between the reference step
+    /// `index` and the observation's time adds to a de-skewed observation: the process
+    /// noise of the steps in between (those whose middle falls between the two times),
+    /// propagated from zero, moved through where the pole was seen.
+    fn deskew_covariance(&self, index: usize, obs: &Observation) -> Matrix2<f64> {
+        let Some(reference) = self.history.get(index) else {
+            return Matrix2::zeros();
+        };
+        let t_ref = reference.time_us as f64;
+        let (lo, hi) = (obs.time_us.min(t_ref), obs.time_us.max(t_ref));
+        let mut relative = EkfState {
+            mean: reference.state.mean,
+            covariance: Matrix4::zeros(),
+        };
+        for i in 0..self.history.len() {
+            let Some(Step {
+                time_us,
+                input: Some(input),
+                ..
+            }) = self.history.get(i)
+            else {
+                continue;
+            };
+            let middle_us = *time_us as f64 - 0.5 * input.dt_s * 1e6;
+            if lo < middle_us && middle_us < hi {
+                relative = relative
+                    .predict(input, &self.config, self.gyro_noise_density)
+                    .0;
+            }
+        }
+        let sigma = relative.covariance.fixed_view::<3, 3>(X, X).into_owned();
+        if sigma == Matrix3::zeros() {
+            return Matrix2::zeros();
+        }
+        let lidar_ref = reference.state.pose().compose(self.mount);
+        let local = Vec2::from_angle(obs.bearing_rad) * obs.range_m;
+        let lever = lidar_ref.transform_point(local) - self.history.pose_at(obs.time_us).position();
+        // World displacement of the point per (δx, δy, δθ) of the relative pose.
+        let world = SMatrix::<f64, 2, 3>::new(1.0, 0.0, -lever.y, 0.0, 1.0, lever.x);
+        let (s, c) = lidar_ref.yaw_rad.sin_cos();
+        let to_lidar = Matrix2::new(c, s, -s, c);
+        let d2 = local.dot(local);
+        let d = d2.sqrt();
+        let to_polar = Matrix2::new(local.x / d, local.y / d, -local.y / d2, local.x / d2);
+        let j = to_polar * to_lidar * world;
+        j * sigma * j.transpose()
+    }
+
+    /// Offer the candidate of `beacon` with the smallest NIS to the filter.
+    fn offer(
+        &mut self,
+        state: &mut EkfState,
+        candidates: &[Observation],
+        beacon: &Beacon,
+        report: &mut ScanReport,
+    ) {
+        let centre = beacon.circle.center;
+        let best = candidates
+            .iter()
+            .filter_map(|o| state.nis(o, centre, self.mount).map(|nis| (nis, o)))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let Some((_, obs)) = best else {
+            report.beacons_unseen += 1;
+            return;
+        };
+        match state.update(obs, centre, self.mount, self.config.gate_chi2) {
+            UpdateOutcome::Applied { nis } => {
+                report.beacons_used += 1;
+                report.nis[beacon.index] = Some(nis);
+                self.health.nis_sum += nis;
+            }
+            UpdateOutcome::Gated { nis } => {
+                report.beacons_gated += 1;
+                report.nis[beacon.index] = Some(nis);
+            }
+            UpdateOutcome::Degenerate => report.beacons_unseen += 1,
+        }
+    }
+
+    /// The median over the beacons of their best candidate's NIS against `state`, the pose
+    /// covariance scaled by `scale`; `None` with fewer than three beacons seen (the median of
+    /// three or four is robust to one bad observation; of two it is not).
+    fn median_nis(
+        &self,
+        state: &EkfState,
+        scale: f64,
+        candidates: &[Vec<Observation>],
+    ) -> Option<f64> {
+        let scaled = scale_pose_covariance(state, scale);
+        let mut nis: Vec<f64> = candidates
+            .iter()
+            .zip(&self.beacons)
+            .filter_map(|(obs, b)| {
+                obs.iter()
+                    .filter_map(|o| scaled.nis(o, b.circle.center, self.mount))
+                    .min_by(f64::total_cmp)
+            })
+            .collect();
+        if nis.len() < 3 {
+            return None;
+        }
+        nis.sort_by(f64::total_cmp);
+        let m = nis.len() / 2;
+        Some(if nis.len().is_multiple_of(2) {
+            0.5 * (nis[m - 1] + nis[m])
+        } else {
+            nis[m]
+        })
+    }
+
+    /// When the scan's beacons disagree with the prediction as a whole, scale the pose
+    /// covariance up until their median NIS is the χ²(2) median, at most by the factor
+    /// that brings one of x, y, θ to its reset variance.
+    fn inflate_if_inconsistent(&mut self, state: &mut EkfState, candidates: &[Vec<Observation>]) {
+        const CHI2_2_MEDIAN: f64 = 1.386;
+        let Some(median) = self.median_nis(state, 1.0, candidates) else {
+            return;
+        };
+        if median <= self.config.inflate_above_median_nis {
+            return;
+        }
+        let reset = EkfState::new(state.pose(), 0.0, 0.0, &self.config);
+        let max_scale = (X..=THETA)
+            .map(|i| reset.covariance[(i, i)] / state.covariance[(i, i)].max(1e-12))
+            .fold(f64::INFINITY, f64::min)
+            .max(1.0);
+        // Bisection on log(scale): the median NIS falls as the covariance grows.
+        let (mut lo, mut hi) = (0.0, max_scale.ln());
+        for _ in 0..30 {
+            let mid = 0.5 * (lo + hi);
+            match self.median_nis(state, mid.exp(), candidates) {
+                Some(m) if m > CHI2_2_MEDIAN => lo = mid,
+                _ => hi = mid,
+            }
+        }
+        *state = scale_pose_covariance(state, hi.exp());
+        self.health.inflations += 1;
+    }
+
+    /// After `relock_after_scans` scans without a beacon, raise the pose variances back to
+    /// the reset values (the mean is kept).
+    fn relock_if_lost(&mut self, state: &mut EkfState, report: &ScanReport) {
+        if report.beacons_used == 0 {
+            self.health.scans_without_beacons += 1;
+        } else {
+            self.health.scans_without_beacons = 0;
+        }
+        if self.health.scans_without_beacons < self.config.relock_after_scans {
+            return;
+        }
+        self.health.scans_without_beacons = 0;
+        self.health.relocks += 1;
+        let reset = EkfState::new(state.pose(), 0.0, 0.0, &self.config);
+        for i in X..=THETA {
+            // Raising diagonal entries keeps the covariance positive semi-definite.
+            state.covariance[(i, i)] = state.covariance[(i, i)].max(reset.covariance[(i, i)]);
+        }
+    }
+}
+
+/// `state` with its pose covariance scaled by `scale` (the pose–bias cross terms by
+/// √scale, so the covariance stays positive semi-definite).
+fn scale_pose_covariance(state: &EkfState, scale: f64) -> EkfState {
+    let root = scale.max(0.0).sqrt();
+    let d = Matrix4::from_diagonal(&nalgebra::Vector4::new(root, root, root, 1.0));
+    EkfState {
+        mean: state.mean,
+        covariance: d * state.covariance * d,
+    }
+}
+
+/// The (x, y, θ) block of the covariance.
+fn pose_covariance(state: &EkfState) -> Matrix3<f64> {
+    state.covariance.fixed_view::<3, 3>(X, X).into_owned()
+}
+
+impl PoseEstimator for Localiser {
+    fn on_odometry(&mut self, time_us: u64, increment: BodyIncrement) {
+        let latest = *self.history.latest();
+        if time_us <= latest.time_us {
+            self.health.inputs_out_of_order += 1;
+            return;
+        }
+        let input = StepInput {
+            dt_s: (time_us - latest.time_us) as f64 * 1e-6,
+            increment,
+            gyro_dtheta_rad: self.gyro.angle_between(
+                latest.time_us,
+                time_us,
+                self.config.gyro_max_gap_us,
+            ),
+        };
+        let (state, outcome) = latest
+            .state
+            .predict(&input, &self.config, self.gyro_noise_density);
+        self.health.slip_steps += u64::from(outcome.slip);
+        self.health.wheel_rotation_steps += u64::from(outcome.wheel_rotation);
+        self.history.push(Step {
+            time_us,
+            input: Some(input),
+            state,
+        });
+        self.refresh_health();
+    }
+
+    fn on_gyro(&mut self, sample: &ImuSample) {
+        if sample.saturated {
+            // A clipped rate would under-state the rotation: leave a gap, so the steps it
+            // covers fall back to the wheels.
+            self.gyro.clear();
+            return;
+        }
+        if !self.gyro.push(sample.time_us, sample.gyro_rad_s[2]) {
+            self.health.inputs_out_of_order += 1;
+        }
+    }
+
+    fn on_scan(&mut self, scan: &Scan) {
+        let (Some(first), Some(last)) = (scan.points.first(), scan.points.last()) else {
+            return;
+        };
+        let middle_us = scan.stamp_us + 0.5 * (first.time_offset_us + last.time_offset_us);
+        if middle_us < self.history.oldest().time_us as f64 {
+            self.health.scans_too_late += 1;
+            return;
+        }
+        let index = self.history.nearest(middle_us);
+        let Some(&reference) = self.history.get(index) else {
+            return;
+        };
+        let mut state = reference.state;
+        let points = self.deskewed_points(scan, state.pose());
+        let samples = if scan.samples > 0 {
+            scan.samples as usize
+        } else {
+            scan.points.len()
+        };
+        let step_rad = std::f64::consts::TAU / samples as f64;
+        let radius_m = self.beacons[0].circle.radius_m;
+        let expected = self.expected_beacons(&state);
+        let times_us: Vec<f64> = scan
+            .points
+            .iter()
+            .map(|p| scan.stamp_us + p.time_offset_us)
+            .collect();
+        let found = extract(
+            &points,
+            &times_us,
+            &expected,
+            step_rad,
+            radius_m,
+            &self.config,
+        );
+        let mut report = ScanReport {
+            reference_time_us: reference.time_us,
+            ..ScanReport::default()
+        };
+        let beacons = self.beacons;
+        let candidates: Vec<Vec<Observation>> = found
+            .iter()
+            .map(|clusters| {
+                report.clusters_rejected += clusters.rejected.len() as u32;
+                clusters
+                    .candidates
+                    .iter()
+                    .map(|o| Observation {
+                        covariance: o.covariance + self.deskew_covariance(index, o),
+                        ..*o
+                    })
+                    .collect()
+            })
+            .collect();
+        self.inflate_if_inconsistent(&mut state, &candidates);
+        // The nearest beacons first (their predicted positions are the best known when the
+        // heading is uncertain): each update narrows the choice among the next one's
+        // candidates.
+        let mut order: Vec<usize> = (0..beacons.len()).collect();
+        order.sort_by(|&a, &b| {
+            expected[a]
+                .centre
+                .norm()
+                .total_cmp(&expected[b].centre.norm())
+                .then(a.cmp(&b))
+        });
+        for i in order {
+            self.offer(&mut state, &candidates[i], &beacons[i], &mut report);
+        }
+        self.relock_if_lost(&mut state, &report);
+        let (config, density) = (&self.config, self.gyro_noise_density);
+        self.history
+            .rewrite_from(index, state, |s, i| s.predict(i, config, density).0);
+        self.health.last_scan = report;
+        self.health.scans_applied += 1;
+        self.health.beacons_used += u64::from(report.beacons_used);
+        self.health.beacons_gated += u64::from(report.beacons_gated);
+        self.health.clusters_rejected += u64::from(report.clusters_rejected);
+        self.refresh_health();
+    }
+
+    fn pose(&self) -> Pose2 {
+        self.history.latest().state.pose()
+    }
+
+    fn covariance(&self) -> Matrix3<f64> {
+        pose_covariance(&self.history.latest().state)
+    }
+
+    fn health(&self) -> Health {
+        self.health
+    }
+
+    fn reset(&mut self, pose: Pose2, time_us: u64) {
+        // The gyro bias is a property of the chip, not of where the robot stands: kept.
+        let latest = self.history.latest().state;
+        let state = EkfState::new(
+            pose,
+            latest.mean[BIAS],
+            latest.covariance[(BIAS, BIAS)],
+            &self.config,
+        );
+        self.history = History::new(state, time_us, self.config.history_steps);
+        self.refresh_health();
+    }
+}

@@ -1,0 +1,345 @@
+//! The robot's core: a step function of timestamped inputs → outputs, with no clock and no
+//! I/O (architecture.md, "The core is a step function").
+//!
+//! On the Pi, one thread per device turns bytes into [`Input`]s stamped with a monotonic
+//! clock; in the simulator, `ratf_sim::harness` does the same from simulated devices. The
+//! core consumes them with [`Robot::handle`], and on its own 50 Hz timer [`Robot::tick`]
+//! returns the wheel references and the solenoid level to send to the Mega, so the host never
+//! waits for the Mega to speak first (original-system.md §10.1).
+//!
+//! What it holds: the pose estimation ([`Estimation`]: wheel odometry feeding a
+//! [`PoseEstimator`], the beacon EKF with gyro fusion by default), the latest sensor readings,
+//! and the motion command. The commanded body twist is turned into wheel references by the
+//! mecanum inverse kinematics, scaled down as a whole when a wheel would exceed its limit, so
+//! the direction of motion is kept. The robot's software never sees the ground truth: its
+//! pose is the estimator's.
+
+use crate::config::Config;
+use crate::drivers::imu::ImuSample;
+use crate::drivers::mega_link::WheelTelemetry;
+use crate::drivers::x4::scan::Scan;
+use crate::field::Field;
+use crate::field::geometry::Pose2;
+use crate::kinematics::{BodyTwist, Mecanum};
+use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
+use crate::odometry::{Odometry, OdometryStep};
+
+/// A timestamped input to the core (each carries its own time).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Input {
+    /// A telemetry batch from the Mega.
+    Wheels(WheelTelemetry),
+    /// The Mega rebooted: its tick counters restart from zero.
+    MegaReset {
+        /// When the reset frame arrived, µs.
+        time_us: u64,
+    },
+    /// One lidar revolution.
+    Scan(Scan),
+    /// One IMU reading.
+    Imu(ImuSample),
+}
+
+/// What the core asks of the hardware at a tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Output {
+    /// Wheel speed references, wheel rad/s, motor index order (wire convention).
+    pub wheel_speeds_rad_s: [f32; 4],
+    /// Electromagnet level.
+    pub solenoid_on: bool,
+    /// The factor the commanded twist was scaled by to respect the wheel limit (1 = none).
+    pub twist_scale: f64,
+}
+
+/// Counters of what the core has received.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InputCounts {
+    /// Telemetry batches.
+    pub wheel_batches: u64,
+    /// Mega resets.
+    pub mega_resets: u64,
+    /// Lidar scans.
+    pub scans: u64,
+    /// IMU samples.
+    pub imu_samples: u64,
+}
+
+/// Which pose estimator the core runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EstimatorKind {
+    /// Ours: the beacon EKF with gyro fusion, gating, de-skew and late scans.
+    Localiser,
+    /// A faithful copy of the original 5dpo filter, for comparison.
+    Original,
+}
+
+impl EstimatorKind {
+    /// A fresh estimator of this kind believing the robot is at `pose` at `time_us`.
+    pub fn build(self, config: &Config, pose: Pose2, time_us: u64) -> Box<dyn PoseEstimator> {
+        let field = Field::competition();
+        match self {
+            EstimatorKind::Localiser => Box::new(Localiser::new(
+                &config.localisation,
+                &config.robot,
+                &field,
+                pose,
+                time_us,
+            )),
+            EstimatorKind::Original => {
+                Box::new(OriginalFilter::new(&config.robot, &field, pose, time_us))
+            }
+        }
+    }
+}
+
+/// Wheel odometry feeding a pose estimator: turns the core's [`Input`]s into the estimator's
+/// three inputs (odometry increments, gyro samples, scans).
+pub struct Estimation {
+    odometry: Odometry,
+    estimator: Box<dyn PoseEstimator>,
+}
+
+impl std::fmt::Debug for Estimation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Estimation")
+            .field("odometry", &self.odometry)
+            .field("pose", &self.estimator.pose())
+            .finish()
+    }
+}
+
+impl Estimation {
+    /// Odometry and an estimator of `kind`, both starting at `pose`.
+    pub fn new(config: &Config, kind: EstimatorKind, pose: Pose2) -> Self {
+        let mut odometry = Odometry::new(&config.robot);
+        odometry.reset(pose);
+        Self {
+            odometry,
+            estimator: kind.build(config, pose, 0),
+        }
+    }
+
+    /// Consume one input; returns the odometry step when it was a telemetry batch.
+    pub fn handle(&mut self, input: &Input) -> Option<OdometryStep> {
+        match input {
+            Input::Wheels(telemetry) => {
+                let step = self.odometry.update(telemetry.totals, telemetry.period_us);
+                if !step.is_first {
+                    self.estimator
+                        .on_odometry(telemetry.sampled_at_us, step.body_increment);
+                }
+                Some(step)
+            }
+            Input::MegaReset { .. } => {
+                self.odometry.forget_totals();
+                None
+            }
+            Input::Scan(scan) => {
+                self.estimator.on_scan(scan);
+                None
+            }
+            Input::Imu(sample) => {
+                self.estimator.on_gyro(sample);
+                None
+            }
+        }
+    }
+
+    /// The estimate.
+    pub fn pose(&self) -> Pose2 {
+        self.estimator.pose()
+    }
+
+    /// The estimator, for its covariance and health.
+    pub fn estimator(&self) -> &dyn PoseEstimator {
+        self.estimator.as_ref()
+    }
+
+    /// Dead-reckoning alone (wheel odometry from the start pose).
+    pub fn odometry_pose(&self) -> Pose2 {
+        self.odometry.pose()
+    }
+
+    /// Restart the estimator at `pose` at `time_us` (e.g. the operator placed the robot).
+    pub fn reset(&mut self, pose: Pose2, time_us: u64) {
+        self.estimator.reset(pose, time_us);
+    }
+}
+
+/// The core: see the module documentation.
+#[derive(Debug)]
+pub struct Robot {
+    mecanum: Mecanum,
+    max_wheel_speed_rad_s: f64,
+    estimation: Estimation,
+    last_odometry: Option<OdometryStep>,
+    switch_pressed: bool,
+    yaw_rate_rad_s: f64,
+    motion: BodyTwist,
+    solenoid_on: bool,
+    counts: InputCounts,
+}
+
+impl Robot {
+    /// A core for the robot in `config`, with our localiser, believing it starts at
+    /// `start_pose`.
+    pub fn new(config: &Config, start_pose: Pose2) -> Self {
+        Self::with_estimator(config, EstimatorKind::Localiser, start_pose)
+    }
+
+    /// A core with the pose estimator `kind`.
+    pub fn with_estimator(config: &Config, kind: EstimatorKind, start_pose: Pose2) -> Self {
+        Self {
+            mecanum: Mecanum::new(&config.robot),
+            max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
+            estimation: Estimation::new(config, kind, start_pose),
+            last_odometry: None,
+            switch_pressed: false,
+            yaw_rate_rad_s: 0.0,
+            motion: BodyTwist::default(),
+            solenoid_on: false,
+            counts: InputCounts::default(),
+        }
+    }
+
+    /// Consume one input.
+    pub fn handle(&mut self, input: &Input) {
+        match input {
+            Input::Wheels(telemetry) => {
+                self.counts.wheel_batches += 1;
+                self.switch_pressed = telemetry.switch_pressed;
+            }
+            Input::MegaReset { .. } => self.counts.mega_resets += 1,
+            Input::Scan(_) => self.counts.scans += 1,
+            Input::Imu(sample) => {
+                self.counts.imu_samples += 1;
+                self.yaw_rate_rad_s = sample.gyro_rad_s[2];
+            }
+        }
+        if let Some(step) = self.estimation.handle(input) {
+            self.last_odometry = Some(step);
+        }
+    }
+
+    /// Ask for a body velocity (robot frame) from now on.
+    pub fn command_motion(&mut self, twist: BodyTwist) {
+        self.motion = twist;
+    }
+
+    /// Energise or release the electromagnet.
+    pub fn command_solenoid(&mut self, on: bool) {
+        self.solenoid_on = on;
+    }
+
+    /// The 50 Hz host tick: the references to send now.
+    pub fn tick(&mut self, _now_us: u64) -> Output {
+        let limited = self
+            .mecanum
+            .limited_inverse(self.motion, self.max_wheel_speed_rad_s);
+        Output {
+            wheel_speeds_rad_s: limited.wheel_speeds_rad_s.map(|w| w as f32),
+            solenoid_on: self.solenoid_on,
+            twist_scale: limited.scale,
+        }
+    }
+
+    /// The pose estimate (the localiser's).
+    pub fn pose(&self) -> Pose2 {
+        self.estimation.pose()
+    }
+
+    /// The pose estimation: odometry alone, the estimator's covariance and health.
+    pub fn estimation(&self) -> &Estimation {
+        &self.estimation
+    }
+
+    /// The estimator's health, for the HMI and the logs.
+    pub fn localisation_health(&self) -> Health {
+        self.estimation.estimator().health()
+    }
+
+    /// Restart the pose estimate at `pose` (the operator placed the robot).
+    pub fn reset_pose(&mut self, pose: Pose2, time_us: u64) {
+        self.estimation.reset(pose, time_us);
+    }
+
+    /// The last odometry step, if any.
+    pub fn last_odometry(&self) -> Option<&OdometryStep> {
+        self.last_odometry.as_ref()
+    }
+
+    /// The box switch as last reported.
+    pub fn switch_pressed(&self) -> bool {
+        self.switch_pressed
+    }
+
+    /// The gyro's latest yaw rate, rad/s (bias not removed).
+    pub fn yaw_rate_rad_s(&self) -> f64 {
+        self.yaw_rate_rad_s
+    }
+
+    /// What the core has received.
+    pub fn input_counts(&self) -> InputCounts {
+        self.counts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn telemetry(totals: [i32; 4]) -> Input {
+        Input::Wheels(WheelTelemetry {
+            totals,
+            deltas_ticks: None,
+            period_us: 20_000,
+            switch_pressed: false,
+            quadrature_errors: None,
+            faults: None,
+            verified: true,
+            received_at_us: 0,
+            sampled_at_us: 0,
+        })
+    }
+
+    #[test]
+    fn a_commanded_twist_becomes_wheel_references_within_the_limit() {
+        let config = Config::default();
+        let mut robot = Robot::new(&config, Pose2::default());
+        robot.command_motion(BodyTwist::new(0.3, 0.0, 0.0));
+        let out = robot.tick(0);
+        assert_eq!(out.twist_scale, 1.0);
+        // Forward: right wheels positive, left wheels negative, 0.3 m/s / 0.03 m = 10 rad/s.
+        assert_eq!(out.wheel_speeds_rad_s, [10.0, -10.0, 10.0, -10.0]);
+        robot.command_motion(BodyTwist::new(1.0, 0.0, 0.0));
+        let out = robot.tick(0);
+        assert!(out.twist_scale < 1.0);
+        let peak = out
+            .wheel_speeds_rad_s
+            .iter()
+            .fold(0.0f32, |m, w| m.max(w.abs()));
+        assert!((f64::from(peak) - config.robot.max_wheel_speed_rad_s).abs() < 1e-4);
+    }
+
+    #[test]
+    fn odometry_follows_telemetry_and_survives_a_mega_reset() {
+        let config = Config::default();
+        let mut robot = Robot::new(&config, Pose2::default());
+        let ticks_per_m = config.robot.ticks_per_wheel_rev / (std::f64::consts::PI * 0.06);
+        let n = (0.1 * ticks_per_m).round() as i32;
+        robot.handle(&telemetry([0; 4]));
+        robot.handle(&telemetry([n, -n, n, -n]));
+        let odometry = |r: &Robot| r.estimation().odometry_pose();
+        assert!((odometry(&robot).x - 0.1).abs() < 1e-3);
+        // The Mega reboots: its totals restart at 0, which must not read as a jump back.
+        robot.handle(&Input::MegaReset { time_us: 0 });
+        robot.handle(&telemetry([0; 4]));
+        robot.handle(&telemetry([n, -n, n, -n]));
+        assert!(
+            (odometry(&robot).x - 0.2).abs() < 2e-3,
+            "{:?}",
+            odometry(&robot)
+        );
+        assert_eq!(robot.input_counts().mega_resets, 1);
+    }
+}

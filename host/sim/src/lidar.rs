@@ -1,0 +1,421 @@
+//! The simulated YDLIDAR X4: a spinning range sensor that emits real X4 packets.
+//!
+//! The head turns clockwise at `lidar.scan_rate_hz` and ranges every `1/(rate · samples)`
+//! seconds, `samples = 360 / lidar.angle_step_deg` per revolution (7 Hz and 0.5° give 720
+//! samples, 198 µs apart). Each sample is taken at its own simulated time with the robot's
+//! pose at that instant, so the robot's motion during the ~143 ms sweep is in the data, as on
+//! the real sensor. Samples are packed 40 to a packet (the X4's typical size), each
+//! revolution opening with a start-of-revolution packet, and the packet bytes go out on the
+//! 128 000 baud line when its last sample is taken. The beam is modelled with the geometry
+//! behind the X4's angle correction (see `BEAM_OFFSET_M`).
+//!
+//! What it sees: only things that reach its scan plane (`robot.lidar_height_m`, 0.20 m by
+//! default). The beacons (0.5 m poles) do; the warehouse and machine walls (0.130 m), the
+//! dividers (0.065 m) and the parts (0.065 m) do not. Clutter standing outside the field
+//! (people's legs, a table) is seen when it is tall enough. The robot does not see itself.
+//!
+//! Errors modelled: Gaussian range noise (`lidar.range_noise_std_m`); no return (distance 0)
+//! below the minimum or beyond the maximum range; the distance quantisation (0.25 mm) and
+//! angle quantisation (1/64°) of the packet format; the X4's angle correction (the sample at
+//! head angle θ is the point at bearing θ + AngCorrect(d)).
+
+use crate::serial::SerialLine;
+use ratf_core::config::{ClutterConfig, LidarConfig, RobotConfig};
+use ratf_core::drivers::x4::packet::{
+    CORRECTION_BASE_MM, CORRECTION_OFFSET_MM, PacketSpec, encode_packet,
+};
+use ratf_core::field::Field;
+use ratf_core::field::geometry::{Circle, Pose2, Rect, Vec2, wrap_angle};
+use ratf_core::rng::SimRng;
+
+/// Samples per data packet, as the X4 typically sends.
+const SAMPLES_PER_PACKET: usize = 40;
+
+/// The ranging beam's geometry behind the X4's angle correction: the datasheet's
+/// `AngCorrect = atan(21.8·(155.3 − d)/(155.3·d))` is exactly the bearing of a point at
+/// distance d on a beam that starts 21.8 mm to the clockwise side of the head's axis and
+/// crosses that axis 155.3 mm out. Ray-casting that beam makes the simulated samples agree
+/// with the correction for any object, however narrow (a 9 cm pole spans less than the 7°
+/// correction at 1 m, so shifting a centre-ray distance by the correction would miss it).
+const BEAM_OFFSET_M: f64 = CORRECTION_OFFSET_MM / 1000.0;
+/// Where the beam crosses the head's axis, m (see [`BEAM_OFFSET_M`]).
+const BEAM_CROSSING_M: f64 = CORRECTION_BASE_MM / 1000.0;
+
+/// Something standing on or around the floor that may reach the lidar's plane.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// A vertical cylinder (a beacon, a person's leg, a table leg).
+    Cylinder(Circle),
+    /// A vertical box (a wall, a table seen side-on).
+    Block(Rect),
+}
+
+/// A [`Shape`] with its height above the floor, m.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solid {
+    /// Footprint.
+    pub shape: Shape,
+    /// Top above the floor, m.
+    pub height_m: f64,
+}
+
+impl Solid {
+    fn ray_distance(&self, origin: Vec2, direction: Vec2) -> Option<f64> {
+        match self.shape {
+            Shape::Cylinder(circle) => circle.ray_intersection(origin, direction),
+            Shape::Block(rect) => rect.ray_intersection(origin, direction),
+        }
+    }
+}
+
+impl From<&ClutterConfig> for Solid {
+    fn from(clutter: &ClutterConfig) -> Self {
+        match *clutter {
+            ClutterConfig::Cylinder {
+                x_m,
+                y_m,
+                radius_m,
+                height_m,
+            } => Solid {
+                shape: Shape::Cylinder(Circle::new(Vec2::new(x_m, y_m), radius_m)),
+                height_m,
+            },
+            ClutterConfig::Block {
+                x_min_m,
+                x_max_m,
+                y_min_m,
+                y_max_m,
+                height_m,
+            } => Solid {
+                shape: Shape::Block(Rect::from_spans(x_min_m, x_max_m, y_min_m, y_max_m)),
+                height_m,
+            },
+        }
+    }
+}
+
+/// A person standing with their legs around `center` ([`ClutterConfig::person`]).
+pub fn person(center: Vec2) -> [Solid; 2] {
+    ClutterConfig::person(center.x, center.y).map(|leg| Solid::from(&leg))
+}
+
+/// Everything the lidar can hit, already filtered to what reaches its plane.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LidarScene {
+    solids: Vec<Solid>,
+}
+
+impl LidarScene {
+    /// The field's beacons and walls plus `clutter`, keeping what is taller than
+    /// `plane_height_m`.
+    pub fn new(field: &Field, clutter: &[Solid], plane_height_m: f64) -> Self {
+        let beacons = field.beacons().iter().map(|b| Solid {
+            shape: Shape::Cylinder(b.circle),
+            height_m: b.height_m,
+        });
+        let walls = field.obstacles().into_iter().map(|o| Solid {
+            shape: Shape::Block(o.rect),
+            height_m: o.height_m,
+        });
+        let solids = beacons
+            .chain(walls)
+            .chain(clutter.iter().copied())
+            .filter(|s| s.height_m > plane_height_m)
+            .collect();
+        Self { solids }
+    }
+
+    /// The solids the lidar can see.
+    pub fn solids(&self) -> &[Solid] {
+        &self.solids
+    }
+
+    /// Distance along the ray to the nearest solid, m, or `None`.
+    pub fn cast(&self, origin: Vec2, direction: Vec2) -> Option<f64> {
+        self.solids
+            .iter()
+            .filter_map(|s| s.ray_distance(origin, direction))
+            .min_by(f64::total_cmp)
+    }
+}
+
+/// The simulated X4.
+#[derive(Clone, Debug)]
+pub struct SimLidar {
+    config: LidarConfig,
+    /// Lidar frame in the robot frame (x towards the head's 0°; its angles turn clockwise).
+    mount: Pose2,
+    samples_per_revolution: u64,
+    sample_period_ns: u64,
+    /// Index of the next sample since the sensor started.
+    next_sample: u64,
+    packet: Vec<f64>,
+    packet_first_index: u64,
+    rng: SimRng,
+    /// When `false` every sample reads "no return" (a fault-injection switch).
+    pub enabled: bool,
+}
+
+impl SimLidar {
+    /// A lidar mounted as in `robot`, ranging as in `config`, with its own noise stream.
+    pub fn new(config: &LidarConfig, robot: &RobotConfig, rng: SimRng) -> Self {
+        let samples_per_revolution = (360.0 / config.angle_step_deg).round().max(1.0) as u64;
+        let sample_period_ns =
+            (1e9 / (config.scan_rate_hz * samples_per_revolution as f64)).round() as u64;
+        Self {
+            config: config.clone(),
+            mount: Pose2::new(
+                robot.lidar_x_m,
+                robot.lidar_y_m,
+                robot.lidar_yaw_deg.to_radians(),
+            ),
+            samples_per_revolution,
+            sample_period_ns,
+            next_sample: 0,
+            packet: Vec::with_capacity(SAMPLES_PER_PACKET),
+            packet_first_index: 0,
+            rng,
+            enabled: true,
+        }
+    }
+
+    /// Time between two samples, ns.
+    pub fn sample_period_ns(&self) -> u64 {
+        self.sample_period_ns
+    }
+
+    /// Samples per revolution.
+    pub fn samples_per_revolution(&self) -> u64 {
+        self.samples_per_revolution
+    }
+
+    fn step_deg(&self) -> f64 {
+        360.0 / self.samples_per_revolution as f64
+    }
+
+    /// Take every sample due in (`from_ns`, `to_ns`], the robot moving from `from_pose` to
+    /// `to_pose` meanwhile, and send completed packets on `line`.
+    pub fn advance(
+        &mut self,
+        from_ns: u64,
+        from_pose: Pose2,
+        to_ns: u64,
+        to_pose: Pose2,
+        scene: &LidarScene,
+        line: &mut SerialLine,
+    ) {
+        loop {
+            let t_ns = self.next_sample * self.sample_period_ns;
+            if t_ns > to_ns {
+                break;
+            }
+            let fraction = if to_ns > from_ns {
+                (t_ns.saturating_sub(from_ns)) as f64 / (to_ns - from_ns) as f64
+            } else {
+                1.0
+            };
+            let robot = interpolate(from_pose, to_pose, fraction);
+            self.take_sample(robot, scene, t_ns, line);
+        }
+    }
+
+    fn take_sample(&mut self, robot: Pose2, scene: &LidarScene, t_ns: u64, line: &mut SerialLine) {
+        let index_in_rev = self.next_sample % self.samples_per_revolution;
+        let head_deg = index_in_rev as f64 * self.step_deg();
+        if index_in_rev == 0 {
+            self.flush(line, t_ns);
+            let mut bytes = Vec::new();
+            // The zero packet only marks the revolution; its single sample carries no range.
+            if encode_packet(&self.spec(true, head_deg, head_deg, &[0.0]), &mut bytes).is_ok() {
+                line.send(&bytes, t_ns);
+            }
+        }
+        if self.packet.is_empty() {
+            self.packet_first_index = index_in_rev;
+        }
+        let distance_mm = if self.enabled {
+            self.measure(robot, head_deg, scene)
+        } else {
+            0.0
+        };
+        self.packet.push(distance_mm);
+        self.next_sample += 1;
+        let revolution_ends = self.next_sample.is_multiple_of(self.samples_per_revolution);
+        if self.packet.len() == SAMPLES_PER_PACKET || revolution_ends {
+            self.flush(line, t_ns);
+        }
+    }
+
+    fn measure(&mut self, robot: Pose2, head_deg: f64, scene: &LidarScene) -> f64 {
+        let lidar = robot.compose(self.mount);
+        let head = Vec2::from_angle(lidar.yaw_rad - head_deg.to_radians());
+        let clockwise_side = Vec2::new(head.y, -head.x);
+        let origin = lidar.position() + clockwise_side * BEAM_OFFSET_M;
+        let beam = head.rotated((BEAM_OFFSET_M / BEAM_CROSSING_M).atan());
+        let Some(along_beam_m) = scene.cast(origin, beam) else {
+            return 0.0;
+        };
+        let hit = origin + beam * along_beam_m;
+        let true_m = hit.distance(lidar.position());
+        let noisy_m = true_m + self.rng.normal(self.config.range_noise_std_m);
+        if noisy_m < self.config.min_range_m || noisy_m > self.config.max_range_m {
+            0.0
+        } else {
+            noisy_m * 1000.0
+        }
+    }
+
+    fn spec<'a>(&self, start: bool, first_deg: f64, last_deg: f64, d: &'a [f64]) -> PacketSpec<'a> {
+        PacketSpec {
+            start_of_revolution: start,
+            scan_frequency_hz: self.config.scan_rate_hz.min(12.7),
+            first_angle_deg: first_deg,
+            last_angle_deg: last_deg,
+            distances_mm: d,
+        }
+    }
+
+    fn flush(&mut self, line: &mut SerialLine, t_ns: u64) {
+        if self.packet.is_empty() {
+            return;
+        }
+        let first = self.packet_first_index as f64 * self.step_deg();
+        let last = first + (self.packet.len() - 1) as f64 * self.step_deg();
+        let mut bytes = Vec::new();
+        // Distances are within 0..=10 m and the frequency within the format: cannot fail.
+        if encode_packet(&self.spec(false, first, last, &self.packet), &mut bytes).is_ok() {
+            line.send(&bytes, t_ns);
+        }
+        self.packet.clear();
+    }
+}
+
+/// The pose a `fraction` (0..=1) of the way from `a` to `b` (linear in position and yaw).
+pub fn interpolate(a: Pose2, b: Pose2, fraction: f64) -> Pose2 {
+    let f = fraction.clamp(0.0, 1.0);
+    Pose2::new(
+        a.x + (b.x - a.x) * f,
+        a.y + (b.y - a.y) * f,
+        a.yaw_rad + wrap_angle(b.yaw_rad - a.yaw_rad) * f,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ratf_core::drivers::x4::X4Driver;
+    use ratf_core::drivers::x4::scan::ScanConfig;
+
+    fn scan_once(
+        robot: Pose2,
+        noise_m: f64,
+    ) -> (Vec<ratf_core::drivers::x4::scan::Scan>, SimLidar) {
+        let field = Field::competition();
+        let robot_config = RobotConfig::default();
+        let config = LidarConfig {
+            range_noise_std_m: noise_m,
+            ..LidarConfig::default()
+        };
+        let scene = LidarScene::new(&field, &[], robot_config.lidar_height_m);
+        let mut lidar = SimLidar::new(&config, &robot_config, SimRng::new(1));
+        let mut line = SerialLine::new(128_000);
+        let mut driver = X4Driver::new(ScanConfig::default());
+        let mut scans = Vec::new();
+        // 2.5 revolutions: the second zero packet hands over one whole scan.
+        let end_ns = (2.5 / config.scan_rate_hz * 1e9) as u64;
+        let mut t = 0;
+        while t < end_ns {
+            let next = t + 1_000_000;
+            lidar.advance(t, robot, next, robot, &scene, &mut line);
+            let bytes = line.receive(next);
+            driver.feed(&bytes, next / 1000, |s| scans.push(s));
+            t = next;
+        }
+        (scans, lidar)
+    }
+
+    #[test]
+    fn only_the_beacons_reach_the_scan_plane_by_default() {
+        let field = Field::competition();
+        let scene = LidarScene::new(&field, &[], 0.20);
+        assert_eq!(scene.solids().len(), 4);
+        let config = ratf_core::config::Config::default();
+        let clutter = crate::world::Scenario::new(&config).clutter;
+        let with_clutter = LidarScene::new(&field, &clutter, 0.20);
+        assert_eq!(with_clutter.solids().len(), 4 + config.sim.clutter.len());
+    }
+
+    #[test]
+    fn a_revolution_has_the_configured_samples_and_rate() {
+        let (scans, lidar) = scan_once(Pose2::new(0.0, 0.0, 0.0), 0.0);
+        assert_eq!(lidar.samples_per_revolution(), 720);
+        assert_eq!(
+            scans.len(),
+            2,
+            "two zero packets after the first revolution"
+        );
+        let scan = &scans[1];
+        assert_eq!(scan.samples, 720);
+        assert!((scan.scan_frequency_hz - 7.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn each_beacon_is_seen_at_its_range_and_bearing_with_the_mount_pose() {
+        let robot = Pose2::new(-0.3, 0.1, 0.4);
+        let (scans, _) = scan_once(robot, 0.0);
+        let scan = &scans[1];
+        let config = RobotConfig::default();
+        let lidar = robot.compose(Pose2::new(
+            config.lidar_x_m,
+            config.lidar_y_m,
+            config.lidar_yaw_deg.to_radians(),
+        ));
+        for beacon in Field::competition().beacons() {
+            // The nearest surface point seen from the lidar is on the line to the centre.
+            let expected_range =
+                lidar.position().distance(beacon.circle.center) - beacon.circle.radius_m;
+            let local = lidar.inverse_transform_point(beacon.circle.center);
+            let expected_angle = local.y.atan2(local.x);
+            let nearest = scan
+                .points
+                .iter()
+                .min_by(|a, b| {
+                    wrap_angle(a.angle_rad - expected_angle)
+                        .abs()
+                        .total_cmp(&wrap_angle(b.angle_rad - expected_angle).abs())
+                })
+                .unwrap();
+            assert!(
+                wrap_angle(nearest.angle_rad - expected_angle).abs() < 0.3f64.to_radians(),
+                "beacon {} bearing {} vs {}",
+                beacon.index,
+                nearest.angle_rad,
+                expected_angle
+            );
+            assert!(
+                (nearest.range_m - expected_range).abs() < 0.003,
+                "beacon {} range {} vs {}",
+                beacon.index,
+                nearest.range_m,
+                expected_range
+            );
+        }
+    }
+
+    #[test]
+    fn motion_during_the_sweep_shows_in_the_data() {
+        // Moving at 1 m/s for one revolution shifts the last samples by ~0.14 m.
+        let field = Field::competition();
+        let config = RobotConfig::default();
+        let scene = LidarScene::new(&field, &[], config.lidar_height_m);
+        let mut moving = SimLidar::new(&LidarConfig::default(), &config, SimRng::new(1));
+        let mut still = moving.clone();
+        let (mut a, mut b) = (SerialLine::new(128_000), SerialLine::new(128_000));
+        let start = Pose2::new(0.0, 0.0, 0.0);
+        let rev_ns = (1e9 / 7.0) as u64;
+        let end = Pose2::new(rev_ns as f64 * 1e-9, 0.0, 0.0);
+        moving.advance(0, start, rev_ns, end, &scene, &mut a);
+        still.advance(0, start, rev_ns, start, &scene, &mut b);
+        assert_ne!(a.receive(u64::MAX), b.receive(u64::MAX));
+    }
+}

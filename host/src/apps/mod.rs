@@ -1,0 +1,8 @@
+//! Apps built on the core and the simulated world: a whole round ([`round`]), the velocity
+//! scripts ([`drive`], [`scripts`]) and the benchmarks ([`loc_bench`], [`nav_bench`]).
+
+pub mod drive;
+pub mod loc_bench;
+pub mod nav_bench;
+pub mod round;
+pub mod scripts;

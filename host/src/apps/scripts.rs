@@ -1,0 +1,291 @@
+//! Velocity scripts: open-loop body-twist profiles to drive the simulated robot with.
+//!
+//! A script is a start pose and a list of keyframes (time, body twist in the robot frame); the
+//! commanded twist is interpolated linearly between keyframes and held after the last one.
+//! The built-in scripts are laid out on the competition floor so that the robot's 30 × 30 cm
+//! footprint clears every wall, divider and beacon by a few centimetres when it follows them
+//! exactly; open loop, it drifts from the nominal path, which is what the drive command
+//! measures (odometry against ground truth).
+
+use std::f64::consts::{FRAC_PI_2, TAU};
+use std::fmt;
+use std::str::FromStr;
+
+use ratf_core::field::geometry::Pose2;
+use ratf_core::kinematics::BodyTwist;
+
+/// A body twist to reach at a time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Keyframe {
+    /// Time since the script started, s.
+    pub time_s: f64,
+    /// Twist at that time (robot frame).
+    pub twist: BodyTwist,
+}
+
+/// An open-loop velocity script.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Script {
+    /// Where the robot starts (world frame).
+    pub start: Pose2,
+    /// Keyframes in increasing time.
+    pub keyframes: Vec<Keyframe>,
+}
+
+impl Script {
+    /// The commanded twist at `time_s` (linear between keyframes, held after the last).
+    pub fn twist_at(&self, time_s: f64) -> BodyTwist {
+        let k = &self.keyframes;
+        let Some(first) = k.first() else {
+            return BodyTwist::default();
+        };
+        if time_s <= first.time_s {
+            return first.twist;
+        }
+        for pair in k.windows(2) {
+            let (a, b) = (pair[0], pair[1]);
+            if time_s <= b.time_s {
+                let span = b.time_s - a.time_s;
+                let f = if span > 0.0 {
+                    (time_s - a.time_s) / span
+                } else {
+                    1.0
+                };
+                let lerp = |x: f64, y: f64| x + (y - x) * f;
+                return BodyTwist::new(
+                    lerp(a.twist.vx_m_s, b.twist.vx_m_s),
+                    lerp(a.twist.vy_m_s, b.twist.vy_m_s),
+                    lerp(a.twist.omega_rad_s, b.twist.omega_rad_s),
+                );
+            }
+        }
+        k[k.len() - 1].twist
+    }
+
+    /// When the last keyframe is reached, s.
+    pub fn duration_s(&self) -> f64 {
+        self.keyframes.last().map_or(0.0, |k| k.time_s)
+    }
+}
+
+/// Builds keyframes leg by leg.
+#[derive(Clone, Debug, Default)]
+struct Builder {
+    time_s: f64,
+    keyframes: Vec<Keyframe>,
+}
+
+impl Builder {
+    fn new() -> Self {
+        Self {
+            time_s: 0.0,
+            keyframes: vec![Keyframe {
+                time_s: 0.0,
+                twist: BodyTwist::default(),
+            }],
+        }
+    }
+
+    fn key(&mut self, twist: BodyTwist) {
+        self.keyframes.push(Keyframe {
+            time_s: self.time_s,
+            twist,
+        });
+    }
+
+    /// Ramp from rest to `twist` over `ramp_s`, hold, ramp back to rest: the distance (and
+    /// angle) covered is `twist × hold_s + twist × ramp_s`.
+    fn leg(&mut self, twist: BodyTwist, hold_s: f64, ramp_s: f64) -> &mut Self {
+        self.time_s += ramp_s;
+        self.key(twist);
+        self.time_s += hold_s;
+        self.key(twist);
+        self.time_s += ramp_s;
+        self.key(BodyTwist::default());
+        self
+    }
+
+    /// A leg covering `distance_m` at `speed_m_s` along the unit robot-frame direction
+    /// (`dir_x`, `dir_y`), with linear ramps of `ramp_s`.
+    fn straight(
+        &mut self,
+        dir_x: f64,
+        dir_y: f64,
+        distance_m: f64,
+        speed_m_s: f64,
+        ramp_s: f64,
+    ) -> &mut Self {
+        let hold_s = distance_m / speed_m_s - ramp_s;
+        self.leg(
+            BodyTwist::new(dir_x * speed_m_s, dir_y * speed_m_s, 0.0),
+            hold_s,
+            ramp_s,
+        )
+    }
+
+    fn pause(&mut self, seconds: f64) -> &mut Self {
+        self.time_s += seconds;
+        self.key(BodyTwist::default());
+        self
+    }
+
+    fn build(&self, start: Pose2) -> Script {
+        Script {
+            start,
+            keyframes: self.keyframes.clone(),
+        }
+    }
+}
+
+/// The built-in scripts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Named {
+    /// A holonomic loop around machine A at 0.3 m/s, heading fixed (facing +y): up 0.71 m,
+    /// right 0.59 m, down, left, back to the start in the start area.
+    Square,
+    /// Two circles of radius 0.3555 m at 0.3 m/s, heading along the path: counter-clockwise
+    /// around machine A, then clockwise around machine B, through the floor's centre.
+    FigureEight,
+    /// A 1 m/s step along the bottom corridor for 0.8 s, then a step to rest: beyond the
+    /// wheels' limit (the core scales it to ~0.73 m/s) and beyond the traction limit at the
+    /// steps, so the wheels slip.
+    Dash,
+}
+
+impl Named {
+    /// Every built-in script.
+    pub const ALL: [Named; 3] = [Named::Square, Named::FigureEight, Named::Dash];
+
+    /// The script.
+    pub fn script(self) -> Script {
+        let speed = 0.3;
+        let ramp = 0.3;
+        match self {
+            Named::Square => {
+                let (height, width) = (0.71, 0.59);
+                let mut b = Builder::new();
+                b.pause(0.5)
+                    .straight(1.0, 0.0, height, speed, ramp)
+                    .pause(0.3)
+                    .straight(0.0, -1.0, width, speed, ramp)
+                    .pause(0.3)
+                    .straight(-1.0, 0.0, height, speed, ramp)
+                    .pause(0.3)
+                    .straight(0.0, 1.0, width, speed, ramp)
+                    .pause(1.0);
+                b.build(Pose2::new(-0.64, -0.42, FRAC_PI_2))
+            }
+            Named::FigureEight => {
+                // Machine block centres (±0.3475, ∓0.075); the circles touch at the origin.
+                let radius = 0.3475f64.hypot(0.075);
+                let omega = speed / radius;
+                let lap_s = TAU / omega;
+                let heading = 0.3475f64.atan2(-0.075);
+                let mut b = Builder::new();
+                b.pause(0.5);
+                // Ramp up, a full lap each way (the ramps' half-speed stretches included),
+                // ramp down: the ramps cover ramp·v/2 each, so hold lap − ramp per circle.
+                b.time_s += ramp;
+                b.key(BodyTwist::new(speed, 0.0, omega));
+                b.time_s += lap_s - ramp;
+                b.key(BodyTwist::new(speed, 0.0, omega));
+                b.time_s += ramp;
+                b.key(BodyTwist::new(speed, 0.0, -omega));
+                b.time_s += lap_s - ramp;
+                b.key(BodyTwist::new(speed, 0.0, -omega));
+                b.time_s += ramp;
+                b.key(BodyTwist::default());
+                b.pause(1.0);
+                b.build(Pose2::new(0.0, 0.0, heading))
+            }
+            Named::Dash => {
+                let mut b = Builder::new();
+                b.pause(0.5);
+                b.key(BodyTwist::new(1.0, 0.0, 0.0));
+                b.time_s += 0.8;
+                b.key(BodyTwist::new(1.0, 0.0, 0.0));
+                b.key(BodyTwist::default());
+                b.pause(1.0);
+                b.build(Pose2::new(-0.66, -0.42, 0.0))
+            }
+        }
+    }
+
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Named::Square => "square",
+            Named::FigureEight => "figure-eight",
+            Named::Dash => "dash",
+        }
+    }
+}
+
+impl fmt::Display for Named {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// An unknown script name.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown script '{0}': expected square, figure-eight or dash")]
+pub struct UnknownScript(pub String);
+
+impl FromStr for Named {
+    type Err = UnknownScript;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Named::ALL
+            .into_iter()
+            .find(|n| n.name() == s)
+            .ok_or_else(|| UnknownScript(s.to_owned()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ratf_core::odometry::arc_displacement;
+
+    /// Integrate the commanded twist exactly (what a perfect robot would do).
+    fn nominal_end(script: &Script) -> Pose2 {
+        let dt = 0.001;
+        let mut pose = script.start;
+        let mut t = 0.0;
+        while t < script.duration_s() {
+            let tw = script.twist_at(t + dt / 2.0);
+            let inc = arc_displacement(tw.vx_m_s * dt, tw.vy_m_s * dt, tw.omega_rad_s * dt);
+            pose = pose.compose(inc.as_pose());
+            t += dt;
+        }
+        pose
+    }
+
+    #[test]
+    fn closed_scripts_return_to_their_start_nominally() {
+        for named in [Named::Square, Named::FigureEight] {
+            let script = named.script();
+            let end = nominal_end(&script);
+            let miss = (end.x - script.start.x).hypot(end.y - script.start.y);
+            assert!(miss < 0.005, "{named}: ends {miss} m from its start");
+        }
+    }
+
+    #[test]
+    fn interpolation_and_hold() {
+        let script = Named::Square.script();
+        assert_eq!(script.twist_at(-1.0), BodyTwist::default());
+        // Half-way up the first ramp (starts at 0.5 s, 0.3 s long).
+        assert!((script.twist_at(0.65).vx_m_s - 0.15).abs() < 1e-12);
+        assert_eq!(script.twist_at(1e9), BodyTwist::default());
+    }
+
+    #[test]
+    fn names_round_trip() {
+        for named in Named::ALL {
+            assert_eq!(named.name().parse::<Named>(), Ok(named));
+        }
+        assert!("circle".parse::<Named>().is_err());
+    }
+}
