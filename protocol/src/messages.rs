@@ -208,12 +208,14 @@ impl Command {
 
 /// Per-wheel counts of invalid (skipped-state) quadrature transitions, each wrapping at 256.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct QuadratureErrors(pub [u8; WHEEL_COUNT]);
 
 /// Fault counters the Mega reports on channel `x`: four wrapping 8-bit counters, one byte
 /// each (a host reading them every 20 ms sees every increment as long as fewer than 256 faults
 /// of a kind happen between two batches).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Faults {
     /// I2C transfers to the motor shield that failed (NACK, bus error, timeout). Byte 0.
     pub i2c: u8,

@@ -8,7 +8,7 @@
 //! action failed is given up, so the mission carries on with the others. When the organisers'
 //! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
-use crate::config::Config;
+use crate::config::{Config, Policy as Driving};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
 use crate::control::route::{ORIGINAL_APPROACH_M, plan_original_route, plan_route};
@@ -57,6 +57,8 @@ pub struct TaskActions {
     snapshots_applied: usize,
     /// Disagreements with the server so far.
     disagreements: usize,
+    /// The colour of the last part placed, as picked.
+    last_placed: Option<PartColor>,
 }
 
 impl std::fmt::Debug for TaskActions {
@@ -88,7 +90,18 @@ impl TaskActions {
             abandoned: 0,
             snapshots_applied: 0,
             disagreements: 0,
+            last_placed: None,
         }
+    }
+
+    /// The colour of the pending action's part, as the planner knows it.
+    pub fn pending_color(&self) -> Option<PartColor> {
+        self.pending.map(|(_, part)| part.color)
+    }
+
+    /// The colour of the last part placed, as it was picked.
+    pub fn last_placed_color(&self) -> Option<PartColor> {
+        self.last_placed
     }
 
     /// What the planner believes now (before the pending action, if any, is done).
@@ -190,6 +203,9 @@ impl ActionSource for TaskActions {
             .parts
             .iter()
             .position(|p| p.place == pending.from && p.color == part.color);
+        if placed {
+            self.last_placed = Some(part.color);
+        }
         match (placed, index) {
             (true, index) => {
                 // The robot's own placement outranks a snapshot that lost the part.
@@ -224,15 +240,6 @@ impl ActionSource for TaskActions {
     }
 }
 
-/// Which driving the robot does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DrivePreset {
-    /// Our route planner and follower (`control::follower`).
-    Ours,
-    /// The original 5dpo follower on the original's routes (`control::original`).
-    Original,
-}
-
 /// The original's final creep into a part: after its last segment it keeps its slow-zone
 /// speed (0.4 / 2.512 m/s) until the switch closes (original-system.md §6.4). Bounded here
 /// by [`ORIGINAL_CREEP_LIMIT_M`] so it never drives blind.
@@ -245,7 +252,7 @@ pub struct RouteNavigator {
     config: Config,
     field: Field,
     map: RoadMap,
-    preset: DrivePreset,
+    preset: Driving,
     follower: Box<dyn PathFollower>,
     dock: bool,
     failed: bool,
@@ -264,8 +271,9 @@ impl std::fmt::Debug for RouteNavigator {
 }
 
 impl RouteNavigator {
-    /// A navigator for the robot in `config` driving with `preset`.
-    pub fn new(config: &Config, preset: DrivePreset) -> Self {
+    /// A navigator for the robot in `config` driving with `preset`: ours (the route planner
+    /// and `control::follower`) or the original's (its routes and `control::original`).
+    pub fn new(config: &Config, preset: Driving) -> Self {
         let field = Field::competition();
         Self {
             map: RoadMap::new(field.waypoints().clone()),
@@ -290,7 +298,7 @@ impl Navigator for RouteNavigator {
             return;
         };
         let route = match self.preset {
-            DrivePreset::Ours => {
+            Driving::Ours => {
                 let footprint = Footprint {
                     length_m: self.config.robot.footprint_length_m,
                     width_m: self.config.robot.footprint_width_m,
@@ -311,7 +319,7 @@ impl Navigator for RouteNavigator {
                     &self.config.navigation,
                 )
             }
-            DrivePreset::Original => {
+            Driving::Original => {
                 self.follower = Box::new(
                     OriginalFollower::new(OriginalParams::default())
                         .with_start_location(self.last_goal),
@@ -352,7 +360,7 @@ impl Navigator for RouteNavigator {
             Status::Following => Arrival::Moving,
             Status::Docked => Arrival::Docked,
             Status::Arrived | Status::Idle => {
-                if self.dock && self.preset == DrivePreset::Original {
+                if self.dock && self.preset == Driving::Original {
                     self.creep_from = Some(pose);
                     return (
                         BodyTwist::new(ORIGINAL_CREEP_M_S, 0.0, 0.0),

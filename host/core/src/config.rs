@@ -6,6 +6,7 @@
 //! [`Config::validate`] rejects values no robot can have, naming the key.
 
 mod check;
+mod competition;
 mod io;
 mod localisation;
 mod mega;
@@ -19,6 +20,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 pub use check::Issue;
+pub use competition::{CompetitionConfig, Policy};
 pub use io::{LidarConfig, LinkConfig, RefereeConfig};
 pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
@@ -53,6 +55,10 @@ pub struct Config {
     pub localisation: LocalisationConfig,
     /// The path follower and docking.
     pub navigation: NavigationConfig,
+    /// The round, the policy, the server polling and the planner's assumptions.
+    pub competition: CompetitionConfig,
+    /// The mission's timing and distances.
+    pub mission: crate::mission::MissionConfig,
 }
 
 /// Why a configuration could not be used.
@@ -151,6 +157,10 @@ impl Config {
             .check(&mut Checker::new("localisation", &mut issues));
         self.navigation
             .check(&mut Checker::new("navigation", &mut issues));
+        self.competition
+            .check(&mut Checker::new("competition", &mut issues));
+        self.mission
+            .check(&mut Checker::new("mission", &mut issues));
         issues
     }
 

@@ -29,7 +29,7 @@
 use crate::config::RobotConfig;
 
 /// A rigid-body velocity in the robot frame.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct BodyTwist {
     /// Forward speed, m/s.
     pub vx_m_s: f64,

@@ -21,3 +21,4 @@ pub mod planning;
 pub mod referee;
 pub mod rng;
 pub mod robot;
+pub mod runtime;

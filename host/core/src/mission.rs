@@ -26,7 +26,7 @@ use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 
 /// One pick-and-place: take the part standing at `pick`, put it at `drop` (slot waypoints).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Action {
     /// Where the part stands (a slot's waypoint, 50–65).
     pub pick: WaypointId,
@@ -65,8 +65,9 @@ pub trait Navigator {
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Arrival);
 }
 
-/// The mission's timing and distances. Defaults are assumptions, each argued.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The mission's timing and distances (`[mission]`). Defaults are assumptions, each argued.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MissionConfig {
     /// Longest drive to a slot, s. 25: the longest trip across the floor is ~3 m, ~10 s at
     /// the original's 0.4 m/s; more than twice that means something is wrong.
@@ -88,7 +89,9 @@ pub struct MissionConfig {
     pub max_attempts: u32,
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
-    /// goes straight on to the drop instead of reversing out and stopping first.
+    /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
+    /// it follows `[competition] policy` (ours: on).
+    #[serde(skip)]
     pub exit_on_route_after_pick: bool,
 }
 
@@ -108,7 +111,7 @@ impl Default for MissionConfig {
 }
 
 /// What the mission reports.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum MissionEvent {
     /// Started an action (attempt 1, 2, …).
     ActionStarted {
@@ -139,7 +142,7 @@ pub enum MissionEvent {
 }
 
 /// Why an action was given up.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SkipReason {
     /// The switch never closed on the part.
     NoContact,

@@ -1,10 +1,7 @@
-//! The robot's core: a step function of timestamped inputs → outputs, with no clock and no
-//! I/O (architecture.md, "The core is a step function").
-//!
-//! On the Pi, one thread per device turns bytes into [`Input`]s stamped with a monotonic
-//! clock; in the simulator, `ratf_sim::harness` does the same from simulated devices. The
-//! core consumes them with [`Robot::handle`], and on its own 50 Hz timer [`Robot::tick`]
-//! returns the wheel references and the solenoid level to send to the Mega, so the host never
+//! The robot's body in the core: pose estimation from the sensors, and the wheel references
+//! for a commanded body twist. Part of [`crate::runtime::Core`], which feeds it the sensor
+//! inputs ([`Robot::handle`]) and, on the host's own 50 Hz tick, asks it for the wheel
+//! references and the solenoid level to send to the Mega ([`Robot::tick`]), so the host never
 //! waits for the Mega to speak first (original-system.md §10.1).
 //!
 //! What it holds: the pose estimation ([`Estimation`]: wheel odometry feeding a
@@ -15,30 +12,12 @@
 //! pose is the estimator's.
 
 use crate::config::Config;
-use crate::drivers::imu::ImuSample;
-use crate::drivers::mega_link::WheelTelemetry;
-use crate::drivers::x4::scan::Scan;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::{BodyTwist, Mecanum};
 use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
 use crate::odometry::{Odometry, OdometryStep};
-
-/// A timestamped input to the core (each carries its own time).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Input {
-    /// A telemetry batch from the Mega.
-    Wheels(WheelTelemetry),
-    /// The Mega rebooted: its tick counters restart from zero.
-    MegaReset {
-        /// When the reset frame arrived, µs.
-        time_us: u64,
-    },
-    /// One lidar revolution.
-    Scan(Scan),
-    /// One IMU reading.
-    Imu(ImuSample),
-}
+use crate::runtime::{Input, Stamped};
 
 /// What the core asks of the hardware at a tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,7 +31,7 @@ pub struct Output {
 }
 
 /// Counters of what the core has received.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct InputCounts {
     /// Telemetry batches.
     pub wheel_batches: u64,
@@ -119,9 +98,10 @@ impl Estimation {
         }
     }
 
-    /// Consume one input; returns the odometry step when it was a telemetry batch.
-    pub fn handle(&mut self, input: &Input) -> Option<OdometryStep> {
-        match input {
+    /// Consume one input (the sensors'; others are ignored); returns the odometry step when
+    /// it was a telemetry batch.
+    pub fn handle(&mut self, stamped: &Stamped) -> Option<OdometryStep> {
+        match &stamped.input {
             Input::Wheels(telemetry) => {
                 let step = self.odometry.update(telemetry.totals, telemetry.period_us);
                 if !step.is_first {
@@ -130,7 +110,7 @@ impl Estimation {
                 }
                 Some(step)
             }
-            Input::MegaReset { .. } => {
+            Input::MegaReset => {
                 self.odometry.forget_totals();
                 None
             }
@@ -142,6 +122,7 @@ impl Estimation {
                 self.estimator.on_gyro(sample);
                 None
             }
+            _ => None,
         }
     }
 
@@ -202,21 +183,22 @@ impl Robot {
         }
     }
 
-    /// Consume one input.
-    pub fn handle(&mut self, input: &Input) {
-        match input {
+    /// Consume one sensor input (others are ignored).
+    pub fn handle(&mut self, stamped: &Stamped) {
+        match &stamped.input {
             Input::Wheels(telemetry) => {
                 self.counts.wheel_batches += 1;
                 self.switch_pressed = telemetry.switch_pressed;
             }
-            Input::MegaReset { .. } => self.counts.mega_resets += 1,
+            Input::MegaReset => self.counts.mega_resets += 1,
             Input::Scan(_) => self.counts.scans += 1,
             Input::Imu(sample) => {
                 self.counts.imu_samples += 1;
                 self.yaw_rate_rad_s = sample.gyro_rad_s[2];
             }
+            _ => return,
         }
-        if let Some(step) = self.estimation.handle(input) {
+        if let Some(step) = self.estimation.handle(stamped) {
             self.last_odometry = Some(step);
         }
     }
@@ -287,19 +269,24 @@ impl Robot {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::drivers::mega_link::WheelTelemetry;
+    use crate::runtime::Timestamp;
 
-    fn telemetry(totals: [i32; 4]) -> Input {
-        Input::Wheels(WheelTelemetry {
-            totals,
-            deltas_ticks: None,
-            period_us: 20_000,
-            switch_pressed: false,
-            quadrature_errors: None,
-            faults: None,
-            verified: true,
-            received_at_us: 0,
-            sampled_at_us: 0,
-        })
+    fn telemetry(totals: [i32; 4]) -> Stamped {
+        Stamped::new(
+            Timestamp::ZERO,
+            Input::Wheels(WheelTelemetry {
+                totals,
+                deltas_ticks: None,
+                period_us: 20_000,
+                switch_pressed: false,
+                quadrature_errors: None,
+                faults: None,
+                verified: true,
+                received_at_us: 0,
+                sampled_at_us: 0,
+            }),
+        )
     }
 
     #[test]
@@ -332,7 +319,7 @@ mod tests {
         let odometry = |r: &Robot| r.estimation().odometry_pose();
         assert!((odometry(&robot).x - 0.1).abs() < 1e-3);
         // The Mega reboots: its totals restart at 0, which must not read as a jump back.
-        robot.handle(&Input::MegaReset { time_us: 0 });
+        robot.handle(&Stamped::new(Timestamp::ZERO, Input::MegaReset));
         robot.handle(&telemetry([0; 4]));
         robot.handle(&telemetry([n, -n, n, -n]));
         assert!(

@@ -1,42 +1,27 @@
-//! The host's real stack on the simulated devices: what runs on the Pi, minus the ports.
+//! The host's real stack on the simulated devices, driven by a script instead of the
+//! competition brain: the velocity scripts (`ratf drive`) and the localisation and
+//! navigation benchmarks command the body twist themselves.
 //!
-//! Per world step: bytes that arrived from the Mega go through [`MegaLink`], bytes from the
-//! lidar through [`X4Driver`], and the IMU is read through its driver at 200 Hz on the
-//! simulated I2C bus; each result becomes a timestamped [`Input`] for the [`Robot`] core. On
-//! the host's own 50 Hz timer (offset from the Mega's tick by [`HOST_TICK_PHASE_US`], as two
-//! free-running clocks would be), the core's [`Output`] goes to the Mega as a `G H I J L`
-//! batch. The caller's `control` hook runs just before each host tick: that is where a
-//! script, the navigation or the mission decides what the robot does next.
+//! Each world step, [`SimDevices`] hands over what the ports delivered; the sensor inputs go
+//! to the core's [`Robot`] (estimation), and at each host tick the caller's `control` hook
+//! decides the motion, whose wheel references go back to the Mega. A whole round goes
+//! through [`ratf_core::runtime::run`] instead, with the same devices.
 
-use crate::world::{Scenario, SimImuBus, World};
 use ratf_core::config::Config;
-use ratf_core::drivers::imu::{ImuConfig as ImuDriverConfig, ImuError, Mpu9255};
-use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
-use ratf_core::drivers::x4::X4Driver;
-use ratf_core::drivers::x4::scan::ScanConfig;
-use ratf_core::rng::SimRng;
-use ratf_core::robot::{Input, Output, Robot};
+use ratf_core::drivers::imu::ImuError;
+use ratf_core::field::geometry::Pose2;
+use ratf_core::robot::{Output, Robot};
+use ratf_core::runtime::{Input, Outputs, Stamped, WheelCommand};
 
-/// Period of the host's reference timer, µs (50 Hz, the Mega's control rate).
-pub const HOST_TICK_PERIOD_US: u64 = 20_000;
-/// Offset of the host's timer from the Mega's tick, µs: an arbitrary 7 ms, so the two clocks
-/// are not artificially in phase.
-pub const HOST_TICK_PHASE_US: u64 = 7_000;
-/// IMU read period, µs (200 Hz, the rate the driver configures).
-pub const IMU_PERIOD_US: u64 = 5_000;
+use crate::devices::SimDevices;
+use crate::world::{Scenario, World};
 
 /// The simulated robot: world + host stack.
 #[derive(Debug)]
 pub struct SimulatedRobot {
-    world: World,
+    devices: SimDevices,
     robot: Robot,
-    mega: MegaLink,
-    lidar: X4Driver,
-    imu: Mpu9255<SimImuBus>,
-    next_host_tick_us: u64,
-    next_imu_us: u64,
     last_output: Option<Output>,
-    scan_drop: Option<(f64, SimRng)>,
 }
 
 impl SimulatedRobot {
@@ -45,39 +30,23 @@ impl SimulatedRobot {
     pub fn new(
         config: &Config,
         scenario: &Scenario,
-        believed_start: ratf_core::field::geometry::Pose2,
+        believed_start: Pose2,
     ) -> Result<Self, ImuError> {
-        let world = World::new(config, scenario);
-        let imu = Mpu9255::new(world.imu_bus(), ImuDriverConfig::default())?;
         Ok(Self {
+            devices: SimDevices::new(config, scenario)?,
             robot: Robot::new(config, believed_start),
-            mega: MegaLink::new(MegaLinkConfig {
-                send_checksums: config.mega.send_checksums,
-                baud: config.link.mega_baud,
-                telemetry_latency_us: config.mega.telemetry_latency_us,
-            }),
-            lidar: X4Driver::new(ScanConfig {
-                range_min_m: config.lidar.min_range_m,
-                range_max_m: config.lidar.max_range_m,
-                ..ScanConfig::default()
-            }),
-            imu,
-            next_host_tick_us: HOST_TICK_PHASE_US,
-            next_imu_us: IMU_PERIOD_US,
             last_output: None,
-            scan_drop: None,
-            world,
         })
     }
 
     /// The world (ground truth, for reports).
     pub fn world(&self) -> &World {
-        &self.world
+        self.devices.world()
     }
 
     /// The world, to inject faults.
     pub fn world_mut(&mut self) -> &mut World {
-        &mut self.world
+        self.devices.world_mut()
     }
 
     /// The core.
@@ -88,11 +57,8 @@ impl SimulatedRobot {
     /// The true pose when the Mega counted the encoders for the last telemetry batch the
     /// core received: the ground truth its odometry (and so its estimate) refers to, without
     /// the telemetry's time in flight. `None` before the first batch.
-    pub fn truth_at_last_telemetry(&self) -> Option<ratf_core::field::geometry::Pose2> {
-        let batches = self.robot.input_counts().wheel_batches as usize;
-        batches
-            .checked_sub(1)
-            .and_then(|i| self.world.tick_poses().get(i).copied())
+    pub fn truth_at_last_telemetry(&self) -> Option<Pose2> {
+        self.devices.truth_at_last_telemetry()
     }
 
     /// The core's output at the last host tick.
@@ -102,13 +68,13 @@ impl SimulatedRobot {
 
     /// Simulated time, µs.
     pub fn now_us(&self) -> u64 {
-        self.world.now_us()
+        self.devices.now_us()
     }
 
     /// Fault injection: drop each completed lidar scan with probability `probability`
     /// (drawn from the scenario's seed) before it reaches the core, as a USB hiccup would.
     pub fn drop_scans(&mut self, probability: f64, seed: u64) {
-        self.scan_drop = Some((probability, SimRng::new(seed).fork("scan-drop")));
+        self.devices.drop_scans(probability, seed);
     }
 
     /// Advance one world step; `control` runs before each host tick with the core and the
@@ -117,61 +83,36 @@ impl SimulatedRobot {
         self.step_observed(control, |_| {})
     }
 
-    /// [`SimulatedRobot::step`], with `observe` seeing every input the core gets, just before
-    /// it does (e.g. to feed a second estimator side by side).
+    /// [`SimulatedRobot::step`], with `observe` seeing every sensor input the core gets,
+    /// just before it does (e.g. to feed a second estimator side by side).
     pub fn step_observed(
         &mut self,
         mut control: impl FnMut(&mut Robot, u64),
-        mut observe: impl FnMut(&Input),
+        mut observe: impl FnMut(&Stamped),
     ) -> Result<bool, ImuError> {
-        self.world.step();
-        let now_us = self.world.now_us();
-        let robot = &mut self.robot;
-        let mut deliver = |input: Input| {
-            observe(&input);
-            robot.handle(&input);
-        };
-
-        let bytes = self.world.receive_from_mega();
-        self.mega.feed(&bytes, now_us, |event| match event {
-            MegaEvent::Telemetry(telemetry) => deliver(Input::Wheels(telemetry)),
-            MegaEvent::Reset { received_at_us } => deliver(Input::MegaReset {
-                time_us: received_at_us,
-            }),
-        });
-        let bytes = self.world.receive_from_lidar();
-        let scan_drop = &mut self.scan_drop;
-        self.lidar.feed(&bytes, now_us, |scan| {
-            let dropped = scan_drop
-                .as_mut()
-                .is_some_and(|(probability, rng)| rng.chance(*probability));
-            if !dropped {
-                deliver(Input::Scan(scan));
+        self.devices.advance()?;
+        let mut ticked = false;
+        while let Some(stamped) = self.devices.pop_input() {
+            if stamped.input != Input::HostTick {
+                observe(&stamped);
+                self.robot.handle(&stamped);
+                continue;
             }
-        });
-        if now_us >= self.next_imu_us {
-            let sample = self.imu.read_sample(now_us)?;
-            deliver(Input::Imu(sample));
-            self.next_imu_us += IMU_PERIOD_US;
+            let now_us = stamped.time.as_us();
+            control(&mut self.robot, now_us);
+            let output = self.robot.tick(now_us);
+            self.devices.apply_outputs(&Outputs {
+                wheels: Some(WheelCommand {
+                    wheel_speeds_rad_s: output.wheel_speeds_rad_s,
+                    solenoid_on: output.solenoid_on,
+                    twist_scale: output.twist_scale,
+                }),
+                ..Outputs::default()
+            });
+            self.last_output = Some(output);
+            ticked = true;
         }
-        let robot = &mut self.robot;
-
-        if now_us < self.next_host_tick_us {
-            return Ok(false);
-        }
-        self.next_host_tick_us += HOST_TICK_PERIOD_US;
-        control(robot, now_us);
-        let output = robot.tick(now_us);
-        // The core's references are finite by construction (limited inverse kinematics of a
-        // finite twist); a non-finite one is a bug upstream and is not sent.
-        if let Ok(bytes) = self
-            .mega
-            .encode_references(output.wheel_speeds_rad_s, output.solenoid_on)
-        {
-            self.world.send_to_mega(&bytes);
-        }
-        self.last_output = Some(output);
-        Ok(true)
+        Ok(ticked)
     }
 }
 
@@ -230,8 +171,8 @@ mod tests {
         while sim.now_us() < 500_000 {
             sim.step_observed(
                 |_, _| {},
-                |input| {
-                    if let Input::Wheels(t) = input {
+                |stamped| {
+                    if let Input::Wheels(t) = &stamped.input {
                         sampled.push((t.sampled_at_us, t.received_at_us));
                     }
                 },

@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod body;
+pub mod devices;
 pub mod harness;
 pub mod imu;
 pub mod lidar;

@@ -1,18 +1,13 @@
-//! A complete simulated Robot@Factory round: the robot's whole stack against the simulated
-//! world and a mock of the organisers' server over real UDP on loopback.
+//! A complete simulated Robot@Factory round: the robot's core (`ratf_core::runtime::Core`,
+//! the very software that runs on the robot) driven by [`ratf_core::runtime::run`] with the
+//! simulated world as its devices and a mock of the organisers' server over real UDP on
+//! loopback.
 //!
-//! - The mock server (`referee::server::MockServer`) holds the round's part list; an operator
-//!   starts it [`START_DELAY_S`] after power-up, so the robot first hears `STOP`.
-//! - The robot asks `IWP` every [`POLL_PERIOD_S`] with the real client
-//!   (`referee::client::RefereeClient`) until it gets the part list, then builds its plan
-//!   (`competition::TaskActions`) and runs the [`Mission`] with our navigation or the
-//!   original's.
-//! - While the mission drives to a pick, the client reads `IWP`, `OWP`, `MAP`, `MBP` one
-//!   request at a time, a cycle every [`POLL_PERIOD_S`] at most
-//!   (`referee::snapshot::SnapshotCycle`: pure, for the robot's own loop as well), and
-//!   hands every complete
-//!   snapshot to the planner, which re-plans from the server's strings (competition.md §6).
-//!   The robot never waits for them: a silent server only means planning from what it knows.
+//! - The mock server ([`MockServer`]) holds the round's part list; an operator starts it
+//!   [`START_DELAY_S`] after power-up, so the robot first hears `STOP`.
+//! - The core asks for the part list, plans, runs the mission and reads the server's four
+//!   areas while driving to a pick (`ratf_core::runtime::Brain`); its requests go out on
+//!   the robot's [`RefereeLink`], and the answers come back as inputs.
 //! - The world's part events are reported to the mock (`place`/`take`), so `IWP`, `OWP`,
 //!   `MAP`, `MBP` answer what is really on the floor; the world's own machines turn the parts.
 //! - Points are the rules' (competition.md §2): one per correct placement, on a machine that
@@ -26,84 +21,51 @@ use std::net::SocketAddr;
 
 use serde::Serialize;
 
-use crate::referee::client::RefereeClient;
+use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
-use ratf_core::competition::{DrivePreset, RouteNavigator, SnapshotUse, TaskActions};
-use ratf_core::config::Config;
-use ratf_core::field::Field;
-use ratf_core::field::PartColor;
-use ratf_core::field::geometry::wrap_angle;
-use ratf_core::mission::{Mission, MissionConfig, MissionEvent};
-use ratf_core::planning::tasks::{
-    BranchAndBound, Location, Model, Original, Policy, Rules, State, StraightLineTimes, Timing,
+use ratf_core::config::{Config, Policy};
+use ratf_core::drivers::imu::ImuError;
+use ratf_core::field::geometry::{Pose2, wrap_angle};
+use ratf_core::field::{Field, PartColor};
+use ratf_core::planning::tasks::{Rules, TaskError};
+use ratf_core::runtime::{
+    Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
 };
-use ratf_core::referee::protocol::{Reply, Request, letters_to_string};
-use ratf_core::referee::snapshot::SnapshotCycle;
-use ratf_core::referee::tracker::RetryPolicy;
-use ratf_sim::harness::SimulatedRobot;
+use ratf_sim::devices::SimDevices;
 use ratf_sim::parts::{PartEvent, PartPlace};
-use ratf_sim::referee::{MockReferee, MockSettings, ServerSlot, round_parts};
-use ratf_sim::world::Scenario;
+use ratf_sim::referee::{MockError, MockReferee, MockSettings, ServerSlot, round_parts};
+use ratf_sim::world::{Collision, Scenario};
 
 /// When the operator starts the mock server, s after power-up.
 pub const START_DELAY_S: f64 = 1.0;
-/// How often the robot asks for the part list while waiting, and starts reading the
-/// server's four strings while driving to a pick, s.
-pub const POLL_PERIOD_S: f64 = 0.2;
 /// A round that has not finished after this long is stopped, s of simulated time.
 pub const ROUND_LIMIT_S: f64 = 300.0;
-
-/// Which software drives the robot.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RoundPolicy {
-    /// Our task planner and navigation.
-    Ours,
-    /// The original's priority planner and line follower.
-    Original,
-}
 
 /// Something that happened during the round, as it happened.
 #[derive(Clone, Debug, PartialEq)]
 pub enum RoundEvent {
-    /// The server answered the first `IWP` with the part list.
-    PartList {
-        /// Simulated time, s.
-        t_s: f64,
-        /// The four letters.
-        letters: String,
-    },
-    /// The mission reported something.
-    Mission {
-        /// Simulated time, s.
-        t_s: f64,
+    /// The robot's core reported something.
+    Core {
+        /// When.
+        time: Timestamp,
         /// What.
-        event: MissionEvent,
+        event: Event,
     },
     /// The robot (or the part it carries) ran into something.
-    Collision(ratf_sim::world::Collision),
+    Collision(Collision),
     /// A host tick (50 Hz): where the robot truly is and where it believes it is.
     Tick {
-        /// Simulated time, s.
-        t_s: f64,
+        /// When.
+        time: Timestamp,
         /// True pose.
-        truth: ratf_core::field::geometry::Pose2,
+        truth: Pose2,
         /// The localiser's estimate.
-        estimate: ratf_core::field::geometry::Pose2,
+        estimate: Pose2,
     },
-    /// The server's strings disagreed with what the robot knew; it re-plans from them.
-    ServerDisagrees {
-        /// Simulated time of the last answer, s.
-        t_s: f64,
-        /// Parts that vanished, appeared, moved or changed colour.
-        parts: usize,
-        /// The four strings, `IWP OWP MAP MBP`.
-        letters: String,
-    },
-    /// A placement scored.
+    /// A placement scored (the referee's view, from the simulated floor).
     Points {
-        /// Simulated time, s.
-        t_s: f64,
+        /// When the part came to rest in its slot.
+        time: Timestamp,
         /// Where (slot waypoint).
         slot: u8,
         /// The part's colour when placed.
@@ -124,7 +86,7 @@ pub struct RoundReport {
     /// Seed.
     pub seed: u64,
     /// Policy.
-    pub policy: RoundPolicy,
+    pub policy: Policy,
     /// Points scored.
     pub points: u32,
     /// Parts in the outgoing warehouse at the end.
@@ -145,20 +107,29 @@ pub struct RoundReport {
     pub pos_rmse_m: f64,
     /// Localisation heading RMSE over the round, degrees.
     pub heading_rmse_deg: f64,
+    /// Inputs the core consumed.
+    #[serde(skip)]
+    pub inputs: u64,
 }
 
 /// Why a round could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum RoundError {
-    /// The round number or parts are not valid.
-    #[error("{0}")]
-    Setup(String),
-    /// A socket failed.
-    #[error("UDP on loopback: {0}")]
-    Io(#[from] std::io::Error),
+    /// The round's parts or the mock server's settings are not valid.
+    #[error("round setup: {0}")]
+    Mock(#[from] MockError),
+    /// The task planner's model could not be built from the configuration.
+    #[error("task planner: {0}")]
+    Planner(#[from] TaskError),
+    /// The mock server's socket failed.
+    #[error("mock server on loopback: {0}")]
+    Server(#[source] std::io::Error),
+    /// The robot's link to the server failed.
+    #[error(transparent)]
+    Link(#[from] LinkError),
     /// The IMU driver failed.
     #[error("simulated IMU: {0}")]
-    Imu(#[from] ratf_core::drivers::imu::ImuError),
+    Imu(#[from] ImuError),
 }
 
 /// How a round is run.
@@ -169,7 +140,7 @@ pub struct RoundOptions {
     /// Seed: the part order and all the simulator's noise.
     pub seed: u64,
     /// Who drives.
-    pub policy: RoundPolicy,
+    pub policy: Policy,
     /// Machine processing time, s.
     pub machine_delay_s: f64,
     /// The operator forces the start at this time (s) with the round's part list, whether
@@ -185,7 +156,7 @@ pub struct RoundOptions {
 
 impl RoundOptions {
     /// Round `round` with `seed` and `policy`, no machine delay, started by the server.
-    pub fn new(round: u8, seed: u64, policy: RoundPolicy) -> Self {
+    pub fn new(round: u8, seed: u64, policy: Policy) -> Self {
         Self {
             round,
             seed,
@@ -196,12 +167,159 @@ impl RoundOptions {
             server_removes: None,
         }
     }
+
+    /// `config` with this round's settings: the seed, round, policy and machine delay.
+    pub fn apply_to(&self, config: &Config) -> Config {
+        let mut config = config.clone();
+        config.sim.seed = self.seed;
+        config.competition.round = self.round;
+        config.competition.policy = self.policy;
+        config.competition.machine_delay_s = self.machine_delay_s;
+        config
+    }
 }
 
-/// Run a round; `on_event` hears the events as they happen.
-pub fn run(
+/// The devices of a simulated round: the simulated world, the robot's UDP link to a mock of
+/// the organisers' server on loopback, and the operator (a forced start at a set time). The
+/// floor's events are reported to the mock server and scored by the rules.
+struct RoundDevices {
+    sim: SimDevices,
+    link: RefereeLink,
+    server: MockServer,
+    field: Field,
+    rules: Rules,
+    silent_server: bool,
+    server_started: bool,
+    server_removes: Option<(ServerSlot, f64)>,
+    force_start: Option<(f64, OperatorCommand)>,
+    queued: std::collections::VecDeque<Stamped>,
+    seen_part_events: usize,
+    seen_collisions: usize,
+    points: u32,
+    last_point_us: u64,
+    ticked: bool,
+    skipped: u32,
+    events: Vec<RoundEvent>,
+}
+
+impl RoundDevices {
+    /// Tell the server what happened on the floor since the last call, and score it.
+    fn settle_floor(&mut self) {
+        let world = self.sim.world();
+        let part_events = world.part_events()[self.seen_part_events..].to_vec();
+        self.seen_part_events += part_events.len();
+        for (at_us, event) in part_events {
+            match event {
+                PartEvent::Picked { from, .. } => {
+                    if let Some(slot) = from.and_then(|id| ServerSlot::of_waypoint(&self.field, id))
+                    {
+                        let _ = self.server.referee_mut().take(slot, at_us);
+                    }
+                }
+                PartEvent::Placed { slot, color, .. } => {
+                    if let Some(server_slot) = ServerSlot::of_waypoint(&self.field, slot) {
+                        let _ = self.server.referee_mut().place(server_slot, color, at_us);
+                    }
+                    if scores(&self.field, self.rules, slot.0, color) {
+                        self.points += 1;
+                        self.last_point_us = at_us;
+                        self.events.push(RoundEvent::Points {
+                            time: Timestamp::from_us(at_us),
+                            slot: slot.0,
+                            color,
+                            total: self.points,
+                        });
+                    }
+                }
+                PartEvent::Dropped { .. } | PartEvent::Processed { .. } => {}
+            }
+        }
+        let world = self.sim.world();
+        for collision in &world.collisions()[self.seen_collisions..] {
+            self.events.push(RoundEvent::Collision(*collision));
+        }
+        self.seen_collisions = world.collisions().len();
+    }
+
+    /// The referee's and the operator's doings at `now_us`, before the world steps.
+    fn before_step(&mut self, now_us: u64) {
+        let t_s = now_us as f64 * 1e-6;
+        if !self.server_started && t_s >= START_DELAY_S {
+            self.server.referee_mut().start(now_us);
+            self.server_started = true;
+        }
+        if let Some((slot, at_s)) = self.server_removes
+            && t_s >= at_s
+        {
+            let _ = self.server.referee_mut().take(slot, now_us);
+            self.server_removes = None;
+        }
+    }
+}
+
+impl Devices for RoundDevices {
+    type Error = RoundError;
+
+    fn next_input(&mut self) -> Result<Option<Stamped>, RoundError> {
+        if let Some(input) = self.queued.pop_front() {
+            return Ok(Some(input));
+        }
+        loop {
+            if let Some(input) = self.sim.pop_input() {
+                if input.input == Input::HostTick {
+                    self.ticked = true;
+                    // The operator presses "start" on this tick's heels.
+                    if let Some((_, command)) = self
+                        .force_start
+                        .take_if(|(at_s, _)| input.time.as_secs_f64() >= *at_s)
+                    {
+                        self.queued
+                            .push_back(Stamped::new(input.time, Input::Operator(command)));
+                    }
+                }
+                return Ok(Some(input));
+            }
+            self.settle_floor();
+            self.before_step(self.sim.now_us());
+            self.sim.advance()?;
+        }
+    }
+
+    fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), RoundError> {
+        self.sim.apply_outputs(outputs);
+        for event in &outputs.events {
+            if matches!(event, Event::Skipped { .. }) {
+                self.skipped += 1;
+            }
+            self.events.push(RoundEvent::Core {
+                time: input.time,
+                event: event.clone(),
+            });
+        }
+        if let Some(request) = outputs.referee {
+            self.link.send(request)?;
+        }
+        if input.input == Input::HostTick {
+            let now_us = input.time.as_us();
+            if !self.silent_server {
+                self.server.poll(now_us).map_err(RoundError::Server)?;
+            }
+            // Loopback delivers before `send` returns: the answer is in before the next
+            // input, stamped now.
+            for datagram in self.link.receive() {
+                self.queued
+                    .push_front(Stamped::new(input.time, Input::Referee { datagram }));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Run a round; `on_event` hears the events as they happen, and every tap sees every step.
+pub fn run_with_taps(
     config: &Config,
     options: &RoundOptions,
+    taps: &mut [&mut dyn Tap],
     mut on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
     let RoundOptions {
@@ -211,234 +329,90 @@ pub fn run(
         machine_delay_s,
         force_start_s,
         silent_server,
-        mut server_removes,
+        server_removes,
     } = *options;
-    let mut config = config.clone();
-    config.sim.seed = seed;
+    let config = options.apply_to(config);
     let field = Field::competition();
-    let letters = round_parts(round, seed).map_err(|e| RoundError::Setup(e.to_string()))?;
+    let letters = round_parts(round, seed)?;
     let machine_delay_us = (machine_delay_s * 1e6) as u64;
-    let settings = MockSettings::for_round(round, seed, Some(letters), machine_delay_us)
-        .map_err(|e| RoundError::Setup(e.to_string()))?;
-    let mut server = MockServer::bind(
+    let settings = MockSettings::for_round(round, seed, Some(letters), machine_delay_us)?;
+    let server = MockServer::bind(
         SocketAddr::from(([127, 0, 0, 1], 0)),
         MockReferee::new(settings),
-    )?;
-    let mut client = RefereeClient::new(
-        server.local_addr()?,
-        0,
-        RetryPolicy::from_config(&config.referee),
     )
-    .map_err(|e| RoundError::Setup(e.to_string()))?;
-
+    .map_err(RoundError::Server)?;
+    let link = RefereeLink::connect(server.local_addr().map_err(RoundError::Server)?, 0)?;
     let scenario = Scenario {
         incoming: letters,
         machine_delay_us,
         green_to_blue_at_a: settings.green_to_blue_at_a,
         ..Scenario::new(&config)
     };
-    let mut sim = SimulatedRobot::new(&config, &scenario, scenario.start_pose)?;
-    let rules = Rules::for_round(round);
-    let model = Model::new(
-        &StraightLineTimes::new(&field, 0.4, 0.8),
-        Timing {
-            pick_s: 1.0,
-            drop_s: 0.8,
-            machine_delay_s,
-        },
-        rules,
-    )
-    .map_err(|e| RoundError::Setup(e.to_string()))?;
-    let (drive, planner): (DrivePreset, Box<dyn Policy>) = match policy {
-        RoundPolicy::Ours => (DrivePreset::Ours, Box::new(BranchAndBound::default())),
-        RoundPolicy::Original => (DrivePreset::Original, Box::new(Original::default())),
+    let mut devices = RoundDevices {
+        sim: SimDevices::new(&config, &scenario)?,
+        link,
+        server,
+        rules: Rules::for_round(round),
+        field: field.clone(),
+        silent_server,
+        server_started: false,
+        server_removes,
+        force_start: force_start_s
+            .map(|at_s| (at_s, OperatorCommand::ForceStart { parts: letters })),
+        queued: Default::default(),
+        seen_part_events: 0,
+        seen_collisions: 0,
+        points: 0,
+        last_point_us: 0,
+        ticked: false,
+        skipped: 0,
+        events: Vec::new(),
     };
-    let navigator = RouteNavigator::new(&config, drive);
-    let mut planner = Some(planner);
-    let mut mission: Option<Mission<RouteNavigator, TaskActions>> = None;
-    let mut navigator = Some(navigator);
+    let mut core = Core::new(&config, scenario.start_pose)?;
 
-    let mut started_at_s: Option<f64> = None;
-    let mut next_poll_s = 0.0;
-    let mut server_started = false;
-    let mut points = 0u32;
-    let mut last_point_s = 0.0;
-    let mut timeouts = 0u32;
-    let mut finished = false;
-    let mut seen_part_events = 0;
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
-    let mut seen_collisions = 0;
     let mut last_batches = 0;
-    let mut snapshots = SnapshotCycle::new((POLL_PERIOD_S * 1e6) as u64);
-
-    while !finished && (sim.now_us() as f64) * 1e-6 < ROUND_LIMIT_S {
-        let now_us = sim.now_us();
-        let t_s = now_us as f64 * 1e-6;
-        if !server_started && t_s >= START_DELAY_S {
-            server.referee_mut().start(now_us);
-            server_started = true;
+    let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
+    let summary = run(&mut core, &mut devices, taps, |core, devices| {
+        for event in devices.events.drain(..) {
+            on_event(&event);
         }
-        if let Some((slot, at_s)) = server_removes
-            && t_s >= at_s
-        {
-            let _ = server.referee_mut().take(slot, now_us);
-            server_removes = None;
+        if !devices.sim.step_complete() {
+            return Flow::Continue;
         }
-        let mut error = None;
-        let ticked = sim.step(|robot, now| {
-            let t = now as f64 * 1e-6;
-            match mission.as_mut() {
-                None => {
-                    robot.command_motion(Default::default());
-                    if t >= next_poll_s && client.outstanding().is_none() {
-                        next_poll_s = t + POLL_PERIOD_S;
-                        if let Err(e) = client.send_request(Request::IncomingWarehouse, now) {
-                            error = Some(e.to_string());
-                        }
-                    }
-                    if !silent_server
-                        && client.outstanding().is_some()
-                        && let Err(e) = server.poll(now)
-                    {
-                        error = Some(e.to_string());
-                    }
-                    let from_server = match client.poll(now) {
-                        Some(Ok(Reply::Slots(list))) => Some((list, "")),
-                        _ => None,
-                    };
-                    let forced = force_start_s
-                        .filter(|&at| t >= at)
-                        .map(|_| (letters, " (forced by the operator)"));
-                    if let Some((list, how)) = from_server.or(forced) {
-                        let text: String = list
-                            .iter()
-                            .map(|c| c.map_or('X', PartColor::letter))
-                            .collect();
-                        on_event(&RoundEvent::PartList {
-                            t_s: t,
-                            letters: format!("{text}{how}"),
-                        });
-                        started_at_s = Some(t);
-                        let state = State::from_incoming(&list, Location::Start, 0.0);
-                        if let (Some(policy), Some(nav)) = (planner.take(), navigator.take()) {
-                            let actions = TaskActions::new(model.clone(), policy, state);
-                            mission = Some(Mission::new(
-                                MissionConfig {
-                                    exit_on_route_after_pick: drive == DrivePreset::Ours,
-                                    ..MissionConfig::default()
-                                },
-                                nav,
-                                actions,
-                            ));
-                        }
-                    }
-                }
-                Some(m) => {
-                    let out = m.tick(now, robot.pose(), robot.switch_pressed());
-                    robot.command_motion(out.twist);
-                    robot.command_solenoid(out.solenoid_on);
-                    for event in out.events {
-                        if matches!(event, MissionEvent::Skipped { .. }) {
-                            timeouts += 1;
-                        }
-                        if event == MissionEvent::Finished {
-                            finished = true;
-                        }
-                        on_event(&RoundEvent::Mission { t_s: t, event });
-                    }
-                    // Read the server while the floor is as the planner knows it.
-                    if !m.is_before_pick() {
-                        m.actions_mut().picking(now);
-                        snapshots.restart();
-                    } else if client.outstanding().is_none()
-                        && let Some(request) = snapshots.request_due(now)
-                        && let Err(e) = client.send_request(request, now)
-                    {
-                        error = Some(e.to_string());
-                    }
-                    let asked = client.outstanding();
-                    if !silent_server
-                        && asked.is_some()
-                        && let Err(e) = server.poll(now)
-                    {
-                        error = Some(e.to_string());
-                    }
-                    let snapshot = client
-                        .poll(now)
-                        .and_then(|result| snapshots.on_reply(asked, result, now));
-                    if let Some(snapshot) = snapshot
-                        && let SnapshotUse::Applied { disagreements } =
-                            m.actions_mut().offer_snapshot(&snapshot)
-                        && disagreements > 0
-                    {
-                        on_event(&RoundEvent::ServerDisagrees {
-                            t_s: t,
-                            parts: disagreements,
-                            letters: snapshot.areas.map(|a| letters_to_string(&a)).join(" "),
-                        });
-                    }
-                }
-            }
-        })?;
-        if let Some(e) = error {
-            return Err(RoundError::Setup(e));
-        }
-        if ticked {
+        // The world step's inputs are all in: measure against the truth.
+        if std::mem::take(&mut devices.ticked) {
             on_event(&RoundEvent::Tick {
-                t_s: sim.now_us() as f64 * 1e-6,
-                truth: sim.world().body().pose,
-                estimate: sim.robot().pose(),
+                time: Timestamp::from_us(devices.sim.now_us()),
+                truth: devices.sim.world().body().pose,
+                estimate: core.pose(),
             });
         }
-
-        // Tell the referee what happened on the floor, and score it.
-        let events = sim.world().part_events()[seen_part_events..].to_vec();
-        seen_part_events += events.len();
-        for (at_us, event) in events {
-            match event {
-                PartEvent::Picked { from, .. } => {
-                    if let Some(slot) = from.and_then(|id| ServerSlot::of_waypoint(&field, id)) {
-                        let _ = server.referee_mut().take(slot, at_us);
-                    }
-                }
-                PartEvent::Placed { slot, color, .. } => {
-                    if let Some(server_slot) = ServerSlot::of_waypoint(&field, slot) {
-                        let _ = server.referee_mut().place(server_slot, color, at_us);
-                    }
-                    if scores(&field, rules, slot.0, color) {
-                        points += 1;
-                        last_point_s = at_us as f64 * 1e-6;
-                        on_event(&RoundEvent::Points {
-                            t_s: last_point_s,
-                            slot: slot.0,
-                            color,
-                            total: points,
-                        });
-                    }
-                }
-                PartEvent::Dropped { .. } | PartEvent::Processed { .. } => {}
-            }
-        }
-
-        for collision in &sim.world().collisions()[seen_collisions..] {
-            on_event(&RoundEvent::Collision(*collision));
-        }
-        seen_collisions = sim.world().collisions().len();
-
-        let batches = sim.robot().input_counts().wheel_batches;
-        if batches != last_batches && started_at_s.is_some() {
+        let batches = devices.sim.wheel_batches();
+        if batches != last_batches
+            && core.brain().started_at_us().is_some()
+            && let Some(truth) = devices.sim.truth_at_last_telemetry()
+        {
             last_batches = batches;
-            let Some(truth) = sim.truth_at_last_telemetry() else {
-                continue;
-            };
-            let estimate = sim.robot().pose();
+            let estimate = core.pose();
             pos_sq += (estimate.x - truth.x).powi(2) + (estimate.y - truth.y).powi(2);
             heading_sq += wrap_angle(estimate.yaw_rad - truth.yaw_rad).powi(2);
             samples += 1;
         }
+        let finished = core.brain().phase() == ratf_core::runtime::Phase::Finished;
+        if finished || devices.sim.now_us() >= limit_us {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    })?;
+    devices.settle_floor();
+    for event in devices.events.drain(..) {
+        on_event(&event);
     }
 
-    let shop = sim.world().shop();
+    let world = devices.sim.world();
+    let shop = world.shop();
     let outgoing = shop
         .parts()
         .iter()
@@ -449,35 +423,46 @@ pub fn run(
         .count() as u32;
     let n = samples.max(1) as f64;
     let count = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-    let (server_disagreements, server_snapshots) = mission.as_ref().map_or((0, 0), |m| {
-        let actions = m.actions();
-        (
-            count(actions.server_disagreements()),
-            count(actions.snapshots_applied()),
-        )
-    });
-    let robot_pose = sim.world().body().pose;
+    let (server_disagreements, server_snapshots) =
+        core.brain().actions().map_or((0, 0), |actions| {
+            (
+                count(actions.server_disagreements()),
+                count(actions.snapshots_applied()),
+            )
+        });
+    let robot_pose = world.body().pose;
     let final_parts = (0..shop.parts().len())
         .map(|i| {
             let p = shop.footprint(i, robot_pose).pose;
             (shop.parts()[i].color, p.x, p.y)
         })
         .collect();
+    let started_s = core.brain().started_at_us().map(|us| us as f64 * 1e-6);
     Ok(RoundReport {
         final_parts,
         round,
         seed,
         policy,
-        points,
+        points: devices.points,
         outgoing,
-        time_s: started_at_s.map_or(0.0, |s| (last_point_s - s).max(0.0)),
-        collisions: sim.world().stats().collisions,
-        timeouts,
+        time_s: started_s.map_or(0.0, |s| (devices.last_point_us as f64 * 1e-6 - s).max(0.0)),
+        collisions: world.stats().collisions,
+        timeouts: devices.skipped,
         server_disagreements,
         server_snapshots,
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
+        inputs: summary.inputs,
     })
+}
+
+/// Run a round with no taps; `on_event` hears the events as they happen.
+pub fn run_round(
+    config: &Config,
+    options: &RoundOptions,
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    run_with_taps(config, options, &mut [], on_event)
 }
 
 /// The full score of round `round`: 4, 6 or 8 points (competition.md §2).
@@ -495,7 +480,7 @@ pub struct BenchRow {
     /// Round number.
     pub round: u8,
     /// Policy.
-    pub policy: RoundPolicy,
+    pub policy: Policy,
     /// Fraction of runs with full points and 4 parts in the outgoing warehouse.
     pub full_score_rate: f64,
     /// Mean time from the part list to the last placement over the full-score runs, s.
@@ -519,7 +504,7 @@ pub fn bench(
 ) -> Result<Vec<BenchRow>, RoundError> {
     let mut rows = Vec::new();
     for round in 1..=3 {
-        for policy in [RoundPolicy::Ours, RoundPolicy::Original] {
+        for policy in Policy::ALL {
             let mut row = BenchRow {
                 round,
                 policy,
@@ -536,7 +521,7 @@ pub fn bench(
                     machine_delay_s,
                     ..RoundOptions::new(round, seed, policy)
                 };
-                let report = run(config, &options, |_| {})?;
+                let report = run_round(config, &options, |_| {})?;
                 on_run(&report);
                 row.runs += 1;
                 row.collisions += report.collisions;
@@ -579,8 +564,8 @@ fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
 mod tests {
     use super::*;
 
-    fn round(round: u8, policy: RoundPolicy) -> RoundReport {
-        run(
+    fn round(round: u8, policy: Policy) -> RoundReport {
+        run_round(
             &Config::default(),
             &RoundOptions::new(round, 1, policy),
             |_| {},
@@ -593,19 +578,23 @@ mod tests {
         let options = RoundOptions {
             force_start_s: Some(3.0),
             silent_server: true,
-            ..RoundOptions::new(1, 1, RoundPolicy::Ours)
+            ..RoundOptions::new(1, 1, Policy::Ours)
         };
         let mut started = None;
-        let report = run(&Config::default(), &options, |event| {
-            if let RoundEvent::PartList { t_s, letters } = event {
-                started = Some((*t_s, letters.clone()));
+        let report = run_round(&Config::default(), &options, |event| {
+            if let RoundEvent::Core {
+                time,
+                event: Event::PartList { forced, .. },
+            } = event
+            {
+                started = Some((time.as_secs_f64(), *forced));
             }
         })
         .unwrap();
-        let (t_s, letters) = started.expect("the round never started");
+        let (t_s, forced) = started.expect("the round never started");
         // Nothing came from the server: the start is the operator's, at 3 s.
         assert!((3.0..3.03).contains(&t_s), "started at {t_s}");
-        assert!(letters.ends_with("(forced by the operator)"), "{letters}");
+        assert!(forced);
         assert_eq!(report.points, 4);
         assert_eq!(
             report.server_snapshots, 0,
@@ -616,7 +605,7 @@ mod tests {
     #[test]
     fn every_round_reaches_full_score_at_seed_1() {
         for (r, points) in [(1, 4), (2, 6), (3, 8)] {
-            let report = round(r, RoundPolicy::Ours);
+            let report = round(r, Policy::Ours);
             assert_eq!(report.points, points, "round {r}: {report:?}");
             assert_eq!(report.outgoing, 4, "round {r}: {report:?}");
             assert!(report.time_s > 0.0);
@@ -625,7 +614,7 @@ mod tests {
 
     #[test]
     fn the_same_seed_gives_the_same_round() {
-        assert_eq!(round(2, RoundPolicy::Ours), round(2, RoundPolicy::Ours));
+        assert_eq!(round(2, Policy::Ours), round(2, Policy::Ours));
     }
 
     #[test]
@@ -644,7 +633,7 @@ mod tests {
     #[test]
     fn every_round_reads_the_server_and_agrees_with_it_at_seed_1() {
         for r in 1..=3 {
-            for policy in [RoundPolicy::Ours, RoundPolicy::Original] {
+            for policy in Policy::ALL {
                 let report = round(r, policy);
                 assert!(report.server_snapshots > 0, "round {r}: {report:?}");
                 assert_eq!(report.server_disagreements, 0, "round {r}: {report:?}");
@@ -656,14 +645,14 @@ mod tests {
     fn a_part_the_server_stops_showing_is_not_fetched_and_the_rest_still_score() {
         // Which incoming slot the robot empties last in the normal round.
         let mut picks = Vec::new();
-        let options = RoundOptions::new(1, 1, RoundPolicy::Ours);
-        run(&Config::default(), &options, |event| {
-            if let RoundEvent::Mission {
-                event: MissionEvent::ActionStarted { action, .. },
+        let options = RoundOptions::new(1, 1, Policy::Ours);
+        run_round(&Config::default(), &options, |event| {
+            if let RoundEvent::Core {
+                event: Event::ActionStarted { pick, .. },
                 ..
             } = event
             {
-                picks.push(action.pick);
+                picks.push(*pick);
             }
         })
         .unwrap();
@@ -677,14 +666,15 @@ mod tests {
             ..options
         };
         let (mut picks, mut told, mut finished) = (Vec::new(), 0, false);
-        let report = run(&Config::default(), &options, |event| match event {
-            RoundEvent::Mission { event, .. } => match event {
-                MissionEvent::ActionStarted { action, .. } => picks.push(action.pick),
-                MissionEvent::Finished => finished = true,
-                _ => {}
-            },
-            RoundEvent::ServerDisagrees { parts, .. } => told += parts,
-            _ => {}
+        let report = run_round(&Config::default(), &options, |event| {
+            if let RoundEvent::Core { event, .. } = event {
+                match event {
+                    Event::ActionStarted { pick, .. } => picks.push(*pick),
+                    Event::Finished => finished = true,
+                    Event::ServerDisagrees { parts, .. } => told += parts,
+                    _ => {}
+                }
+            }
         })
         .unwrap();
         assert!(!picks.contains(&last), "fetched {last:?}: {picks:?}");

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use ratf_core::config::{Config, ConfigError};
+use ratf_core::config::{Config, ConfigError, Policy};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_host::apps::drive::{self, DriveReport, DriveTrace};
@@ -136,8 +136,8 @@ struct SimArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Who drives: ours, or the original's planner and follower.
-    #[arg(long, default_value = "ours")]
-    policy: String,
+    #[arg(long, value_enum, default_value_t = Policy::Ours)]
+    policy: Policy,
     /// Machine processing time, s.
     #[arg(long, default_value_t = 0.0)]
     machine_delay_s: f64,
@@ -595,13 +595,9 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
 
 fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     use ratf_host::apps::drive::PoseRecord;
-    use ratf_host::apps::round::{self, RoundEvent, RoundPolicy};
+    use ratf_host::apps::round::{self, RoundEvent};
     let config = load_config(args.config.as_deref())?;
-    let policy = match args.policy.as_str() {
-        "ours" => RoundPolicy::Ours,
-        "original" => RoundPolicy::Original,
-        other => anyhow::bail!("unknown policy '{other}': expected ours or original"),
-    };
+    let field = Field::competition();
     fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
     let stem = format!("sim-round{}-seed{}-{}", args.round, args.seed, args.policy);
@@ -618,72 +614,81 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     let options = round::RoundOptions {
         machine_delay_s: args.machine_delay_s,
         force_start_s: args.force_start_s,
-        ..round::RoundOptions::new(args.round, args.seed, policy)
+        ..round::RoundOptions::new(args.round, args.seed, args.policy)
     };
-    let report = round::run(&config, &options, |event| {
+    let say = |t_s: f64, text: &str| println!("{t_s:7.2} s  {text}");
+    let report = round::run_round(&config, &options, |event| {
         let line = match event {
             RoundEvent::Tick {
-                t_s,
+                time,
                 truth,
                 estimate,
             } => {
                 truth_path.push(truth.position());
                 estimate_path.push(estimate.position());
                 serde_json::json!({
-                    "t_s": t_s,
+                    "type": "tick",
+                    "t_s": time.as_secs_f64(),
                     "truth": PoseRecord::from(*truth),
                     "estimate": PoseRecord::from(*estimate),
                 })
             }
-            other => {
-                let (t_s, text) = match other {
-                    RoundEvent::PartList { t_s, letters } => {
-                        (*t_s, format!("part list {letters} (the clock starts)"))
-                    }
-                    RoundEvent::Mission { t_s, event } => (*t_s, format!("{event:?}")),
-                    RoundEvent::Collision(c) => {
-                        collisions.push(*c);
-                        (
-                            c.time_us as f64 * 1e-6,
-                            format!(
-                                "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
-                                c.with,
-                                c.pose.x,
-                                c.pose.y,
-                                c.pose.yaw_rad.to_degrees()
-                            ),
-                        )
-                    }
-                    RoundEvent::ServerDisagrees {
-                        t_s,
-                        parts,
-                        letters,
-                    } => (
-                        *t_s,
-                        format!(
-                            "server disagrees on {parts} part(s): {letters} (IWP OWP MAP MBP); \
-                             re-planning from it"
-                        ),
-                    ),
-                    RoundEvent::Points {
-                        t_s,
-                        slot,
-                        color,
-                        total,
-                    } => (
-                        *t_s,
-                        format!("+1 point: {color} part at slot {slot} ({total} total)"),
-                    ),
-                    RoundEvent::Tick { t_s, .. } => (*t_s, String::new()),
-                };
-                println!("{t_s:7.2} s  {text}");
-                serde_json::json!({ "t_s": t_s, "event": text })
+            RoundEvent::Core { time, event } => {
+                let text = event.describe(&field);
+                say(time.as_secs_f64(), &text);
+                serde_json::json!({
+                    "type": "event",
+                    "t_s": time.as_secs_f64(),
+                    "text": text,
+                    "event": event,
+                })
+            }
+            RoundEvent::Collision(c) => {
+                collisions.push(*c);
+                let text = format!(
+                    "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
+                    c.with,
+                    c.pose.x,
+                    c.pose.y,
+                    c.pose.yaw_rad.to_degrees()
+                );
+                say(c.time_us as f64 * 1e-6, &text);
+                serde_json::json!({
+                    "type": "collision",
+                    "t_s": c.time_us as f64 * 1e-6,
+                    "text": text,
+                    "pose": PoseRecord::from(c.pose),
+                })
+            }
+            RoundEvent::Points {
+                time,
+                slot,
+                color,
+                total,
+            } => {
+                let text = format!(
+                    "+1: {} on {} ({total} point{})",
+                    color_name(*color),
+                    ratf_core::runtime::slot_name(&field, ratf_core::field::WaypointId(*slot)),
+                    if *total == 1 { "" } else { "s" }
+                );
+                say(time.as_secs_f64(), &text);
+                serde_json::json!({
+                    "type": "points",
+                    "t_s": time.as_secs_f64(),
+                    "text": text,
+                    "slot": slot,
+                    "color": color,
+                    "total": total,
+                })
             }
         };
         log.write(&line);
     })?;
     let wall_s = started.elapsed().as_secs_f64();
-    log.finish(&report)?;
+    let mut summary = serde_json::to_value(&report)?;
+    summary["type"] = serde_json::json!("summary");
+    log.finish(&summary)?;
 
     let mut plot = FieldPlot::new(&Field::competition());
     plot.path(&truth_path, "#1f4e9c", false, "ground truth");
@@ -742,6 +747,15 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A colour as a team says it.
+fn color_name(color: ratf_core::field::PartColor) -> &'static str {
+    match color {
+        ratf_core::field::PartColor::Red => "red",
+        ratf_core::field::PartColor::Green => "green",
+        ratf_core::field::PartColor::Blue => "blue",
+    }
+}
+
 fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::round;
     let config = load_config(args.bench.config.as_deref())?;
@@ -760,7 +774,7 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
         println!(
             "{:<6} {:<9} {:>9.0}% {:>10.1} {:>10.1} {:>11} {:>9} {:>5}",
             r.round,
-            format!("{:?}", r.policy).to_lowercase(),
+            r.policy.name(),
             r.full_score_rate * 100.0,
             r.mean_time_s,
             r.max_time_s,

@@ -1,14 +1,10 @@
-//! A client for the organisers' server: one outstanding request at a time, a per-try reply
-//! timeout that doubles on every retry, validated replies, typed errors.
+//! The organisers' server over UDP: [`RefereeLink`], the socket as one of the robot's
+//! devices, and [`RefereeClient`], a blocking client for tools and tests.
 //!
-//! The logic is [`RequestTracker`], a pure state machine with time passed in; the socket is
-//! a thin wrapper, [`RefereeClient`], with a poll-style API for the 50 Hz loop
-//! ([`RefereeClient::send_request`] / [`RefereeClient::poll`]) and a blocking one
-//! ([`RefereeClient::request`]). There are no request ids (competition.md §3), so a reply is
-//! matched to the one outstanding request; a reply that does not validate for it (garbage,
-//! or a late answer to an earlier request) is remembered but does not end the request, which
-//! may still get a good answer before its tries run out. Nothing here exits or panics
-//! because the server is silent: the caller gets [`ClientError::Timeout`] and decides.
+//! The request logic (one outstanding request, retries with backoff, validated replies,
+//! late answers discarded) is the core's pure [`RequestTracker`]; here is only the socket.
+//! Nothing here exits or panics because the server is silent: the caller gets
+//! [`ClientError::Timeout`] and decides.
 
 use std::io::ErrorKind;
 use std::net::{SocketAddr, ToSocketAddrs, UdpSocket};
@@ -18,60 +14,73 @@ use ratf_core::config::RefereeConfig;
 use ratf_core::referee::protocol::{Reply, Request};
 use ratf_core::referee::tracker::{ClientError, RequestTracker, RetryPolicy, Step};
 
-/// Largest datagram the client reads, bytes (replies are at most a handful of letters).
-const MAX_DATAGRAM_BYTES: usize = 512;
+/// Largest datagram read, bytes (replies are at most a handful of letters; anything longer
+/// is garbage and is cut, then rejected by the parser).
+pub const MAX_DATAGRAM_BYTES: usize = 512;
 
-/// The client on a UDP socket connected to the server (datagrams from other addresses are
-/// dropped by the OS).
+/// The socket to the server could not be set up or used.
+#[derive(Debug, thiserror::Error)]
+#[error("referee link: {what}: {source}")]
+pub struct LinkError {
+    /// What was being done (names the address).
+    pub what: String,
+    /// The operating system's error.
+    #[source]
+    pub source: std::io::Error,
+}
+
+impl LinkError {
+    fn new(what: impl Into<String>, source: std::io::Error) -> Self {
+        Self {
+            what: what.into(),
+            source,
+        }
+    }
+}
+
+/// The organisers' server as a device: a non-blocking UDP socket connected to the server,
+/// so the OS drops datagrams from any other address. Sends requests, hands over what
+/// arrived; the request logic is the core's ([`RequestTracker`]).
 #[derive(Debug)]
-pub struct RefereeClient {
+pub struct RefereeLink {
     socket: UdpSocket,
     server: SocketAddr,
-    tracker: RequestTracker,
-    epoch: Instant,
 }
 
-fn io_error(what: &str, e: std::io::Error) -> ClientError {
-    ClientError::Io(format!("{what}: {e}"))
-}
-
-impl RefereeClient {
-    /// A client for `[referee]`: resolves `server_address:server_port`, binds `local_port`.
-    pub fn from_config(config: &RefereeConfig) -> Result<Self, ClientError> {
+impl RefereeLink {
+    /// Resolve `[referee] server_address:server_port` and connect from `local_port`.
+    pub fn from_config(config: &RefereeConfig) -> Result<Self, LinkError> {
         let target = (config.server_address.as_str(), config.server_port);
+        let resolving = || format!("resolving {}", config.server_address);
         let server = target
             .to_socket_addrs()
-            .map_err(|e| io_error(&format!("resolving {}", config.server_address), e))?
+            .map_err(|e| LinkError::new(resolving(), e))?
             .next()
-            .ok_or_else(|| ClientError::Io(format!("{} has no address", config.server_address)))?;
-        Self::new(server, config.local_port, RetryPolicy::from_config(config))
+            .ok_or_else(|| {
+                LinkError::new(
+                    resolving(),
+                    std::io::Error::new(ErrorKind::NotFound, "no address"),
+                )
+            })?;
+        Self::connect(server, config.local_port)
     }
 
-    /// A client for `server`, bound to `local_port` (0 = any) on all interfaces.
-    pub fn new(
-        server: SocketAddr,
-        local_port: u16,
-        policy: RetryPolicy,
-    ) -> Result<Self, ClientError> {
+    /// A link to `server`, bound to `local_port` (0 = any) on all interfaces.
+    pub fn connect(server: SocketAddr, local_port: u16) -> Result<Self, LinkError> {
         let local: SocketAddr = if server.is_ipv4() {
             ([0, 0, 0, 0], local_port).into()
         } else {
             ([0u16; 8], local_port).into()
         };
         let socket =
-            UdpSocket::bind(local).map_err(|e| io_error(&format!("binding {local}"), e))?;
+            UdpSocket::bind(local).map_err(|e| LinkError::new(format!("binding {local}"), e))?;
         socket
             .connect(server)
-            .map_err(|e| io_error(&format!("connecting to {server}"), e))?;
+            .map_err(|e| LinkError::new(format!("connecting to {server}"), e))?;
         socket
             .set_nonblocking(true)
-            .map_err(|e| io_error("non-blocking mode", e))?;
-        Ok(Self {
-            socket,
-            server,
-            tracker: RequestTracker::new(policy),
-            epoch: Instant::now(),
-        })
+            .map_err(|e| LinkError::new("non-blocking mode", e))?;
+        Ok(Self { socket, server })
     }
 
     /// The server's address.
@@ -79,71 +88,41 @@ impl RefereeClient {
         self.server
     }
 
-    /// The request waiting for a reply, if any.
-    pub fn outstanding(&self) -> Option<Request> {
-        self.tracker.outstanding()
-    }
-
-    /// Send `request` at `now_us` (caller's clock) without waiting; collect the reply with
-    /// [`Self::poll`] on the same clock.
-    pub fn send_request(&mut self, request: Request, now_us: u64) -> Result<(), ClientError> {
-        self.tracker.start(request, now_us)?;
-        if let Err(e) = self.socket.send(request.as_str().as_bytes()) {
-            // A failed first send is a lost datagram: the retry timer resends it.
-            if e.kind() != ErrorKind::ConnectionRefused && e.kind() != ErrorKind::WouldBlock {
-                self.tracker.cancel();
-                return Err(io_error(&format!("sending {request}"), e));
+    /// Send `request`'s text. No server listening (an ICMP "port unreachable") and a full
+    /// send buffer count as a lost datagram, which the tracker's retries cover.
+    pub fn send(&self, request: Request) -> Result<(), LinkError> {
+        match self.socket.send(request.as_str().as_bytes()) {
+            Ok(_) => Ok(()),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    ErrorKind::ConnectionRefused | ErrorKind::WouldBlock
+                ) =>
+            {
+                Ok(())
             }
+            Err(e) => Err(LinkError::new(format!("sending {request}"), e)),
         }
-        Ok(())
     }
 
-    /// Read what has arrived and advance the retries at `now_us`. `Some` when the
-    /// outstanding request ends (its reply, or why it failed); `None` while waiting or idle.
-    pub fn poll(&mut self, now_us: u64) -> Option<Result<Reply, ClientError>> {
+    /// Every datagram that has arrived, in order (each cut at [`MAX_DATAGRAM_BYTES`]).
+    pub fn receive(&self) -> Vec<Vec<u8>> {
         let mut buf = [0u8; MAX_DATAGRAM_BYTES];
+        let mut datagrams = Vec::new();
         loop {
             match self.socket.recv(&mut buf) {
-                Ok(n) => {
-                    if let Some(reply) = self.tracker.on_datagram(&buf[..n]) {
-                        return Some(Ok(reply));
-                    }
-                }
-                // ConnectionRefused: an ICMP "port unreachable" from an earlier send, i.e.
-                // no server there yet: the same as silence.
+                Ok(n) => datagrams.push(buf[..n].to_vec()),
+                // An ICMP "port unreachable" from an earlier send: no server there yet, the
+                // same as silence.
                 Err(e) if e.kind() == ErrorKind::ConnectionRefused => {}
                 Err(_) => break,
             }
         }
-        match self.tracker.step(now_us) {
-            Step::Send(request) => {
-                // Errors here are treated as a lost datagram; the next timeout retries.
-                let _ = self.socket.send(request.as_str().as_bytes());
-                None
-            }
-            Step::Done(result) => Some(result),
-            Step::Idle | Step::Waiting { .. } => None,
-        }
-    }
-
-    /// Send `request` and wait for its reply or failure (at most the sum of every try's
-    /// timeout), on the wall clock. Fails with [`ClientError::Busy`] if a poll-style
-    /// request is outstanding.
-    pub fn request(&mut self, request: Request) -> Result<Reply, ClientError> {
-        self.send_request(request, self.now_us())?;
-        loop {
-            if let Some(result) = self.poll(self.now_us()) {
-                return result;
-            }
-            if let Some(deadline_us) = self.tracker.deadline_us() {
-                let wait_us = deadline_us.saturating_sub(self.now_us()).max(1_000);
-                self.wait_readable(Duration::from_micros(wait_us));
-            }
-        }
+        datagrams
     }
 
     /// Block until a datagram may be readable or `timeout` passes (peeks, reads nothing).
-    fn wait_readable(&self, timeout: Duration) {
+    pub fn wait_readable(&self, timeout: Duration) {
         let mut probe = [0u8; 1];
         let blocking = self.socket.set_nonblocking(false).is_ok()
             && self.socket.set_read_timeout(Some(timeout)).is_ok();
@@ -153,6 +132,85 @@ impl RefereeClient {
             std::thread::sleep(timeout.min(Duration::from_millis(5)));
         }
         let _ = self.socket.set_nonblocking(true);
+    }
+}
+
+/// Why a blocking request produced no reply.
+#[derive(Debug, thiserror::Error)]
+pub enum RequestError {
+    /// The exchange failed (timeout, bad replies, busy).
+    #[error(transparent)]
+    Exchange(#[from] ClientError),
+    /// The socket failed.
+    #[error(transparent)]
+    Link(#[from] LinkError),
+}
+
+/// A blocking client for tools and tests (`ratf referee`, the practice server's checks):
+/// the core's [`RequestTracker`] on a [`RefereeLink`], on the wall clock. The robot's own
+/// loop does not use it: its core tracks requests and the link is one of its devices.
+#[derive(Debug)]
+pub struct RefereeClient {
+    link: RefereeLink,
+    tracker: RequestTracker,
+    epoch: Instant,
+}
+
+impl RefereeClient {
+    /// A client for `[referee]`.
+    pub fn from_config(config: &RefereeConfig) -> Result<Self, LinkError> {
+        Ok(Self {
+            link: RefereeLink::from_config(config)?,
+            tracker: RequestTracker::new(RetryPolicy::from_config(config)),
+            epoch: Instant::now(),
+        })
+    }
+
+    /// A client for `server`, bound to `local_port` (0 = any) on all interfaces.
+    pub fn new(
+        server: SocketAddr,
+        local_port: u16,
+        policy: RetryPolicy,
+    ) -> Result<Self, LinkError> {
+        Ok(Self {
+            link: RefereeLink::connect(server, local_port)?,
+            tracker: RequestTracker::new(policy),
+            epoch: Instant::now(),
+        })
+    }
+
+    /// The server's address.
+    pub fn server(&self) -> SocketAddr {
+        self.link.server()
+    }
+
+    /// Send `request` and wait for its reply or failure (at most the sum of every try's
+    /// timeout, after any late answers to the previous request), on the wall clock.
+    pub fn request(&mut self, request: Request) -> Result<Reply, RequestError> {
+        while !self.tracker.ready(self.now_us()) {
+            for datagram in self.link.receive() {
+                self.tracker.on_datagram(&datagram);
+            }
+            self.link.wait_readable(Duration::from_millis(5));
+        }
+        self.tracker.start(request, self.now_us())?;
+        self.link.send(request)?;
+        loop {
+            for datagram in self.link.receive() {
+                if let Some(reply) = self.tracker.on_datagram(&datagram) {
+                    return Ok(reply);
+                }
+            }
+            match self.tracker.step(self.now_us()) {
+                Step::Send(request) => self.link.send(request)?,
+                Step::Done(result) => return Ok(result?),
+                Step::Idle | Step::Waiting { .. } => {}
+            }
+            if let Some(deadline_us) = self.tracker.deadline_us() {
+                let wait_us = deadline_us.saturating_sub(self.now_us()).max(1_000);
+                self.link.wait_readable(Duration::from_micros(wait_us));
+            }
+        }
     }
 
     fn now_us(&self) -> u64 {
@@ -179,12 +237,15 @@ mod tests {
         let started = Instant::now();
         let e = client.request(Request::IncomingWarehouse).unwrap_err();
         let waited = started.elapsed();
-        assert_eq!(
-            e,
-            ClientError::Timeout {
-                request: Request::IncomingWarehouse,
-                tries: 3
-            }
+        assert!(
+            matches!(
+                e,
+                RequestError::Exchange(ClientError::Timeout {
+                    request: Request::IncomingWarehouse,
+                    tries: 3
+                })
+            ),
+            "{e}"
         );
         // The three tries each reached the server.
         server
@@ -209,7 +270,10 @@ mod tests {
         let mut client = RefereeClient::new(addr, 0, policy).unwrap();
         assert!(matches!(
             client.request(Request::Ping),
-            Err(ClientError::Timeout { tries: 2, .. })
+            Err(RequestError::Exchange(ClientError::Timeout {
+                tries: 2,
+                ..
+            }))
         ));
     }
 
@@ -234,7 +298,13 @@ mod tests {
         let mut client = RefereeClient::new(addr, 0, policy).unwrap();
         let e = client.request(Request::MachineA).unwrap_err();
         echo.join().unwrap();
-        assert!(matches!(e, ClientError::BadReply { tries: 2, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                RequestError::Exchange(ClientError::BadReply { tries: 2, .. })
+            ),
+            "{e}"
+        );
         assert!(
             e.to_string().contains("BGYR") && e.to_string().contains("MAP"),
             "{e}"

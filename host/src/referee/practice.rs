@@ -287,7 +287,10 @@ mod tests {
             max_tries: 3,
         };
         let mut client = RefereeClient::new(addr, 0, policy).unwrap();
-        assert_eq!(client.request(Request::IncomingWarehouse), Ok(Reply::Stop));
+        assert_eq!(
+            client.request(Request::IncomingWarehouse).unwrap(),
+            (Reply::Stop)
+        );
         std::thread::sleep(Duration::from_millis(300));
         assert!(matches!(
             client.request(Request::IncomingWarehouse),

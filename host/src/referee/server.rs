@@ -231,26 +231,36 @@ mod tests {
     fn every_request_over_loopback_before_and_after_the_start() {
         let server = background("BGGR", 0);
         let mut client = RefereeClient::new(server.addr(), 0, POLICY).unwrap();
-        assert_eq!(client.request(Request::Ping), Ok(Reply::Pong));
+        assert_eq!(client.request(Request::Ping).unwrap(), (Reply::Pong));
         for r in Request::ALL.into_iter().filter(|&r| r != Request::Ping) {
-            assert_eq!(client.request(r), Ok(Reply::Stop), "{r} before the start");
+            assert_eq!(
+                client.request(r).unwrap(),
+                (Reply::Stop),
+                "{r} before the start"
+            );
         }
         server.with_referee(|m, now| m.start(now));
         assert_eq!(
-            client.request(Request::IncomingWarehouse),
-            Ok(letters("BGGR"))
+            client.request(Request::IncomingWarehouse).unwrap(),
+            (letters("BGGR"))
         );
         assert_eq!(
-            client.request(Request::OutgoingWarehouse),
-            Ok(letters("XXXX"))
+            client.request(Request::OutgoingWarehouse).unwrap(),
+            (letters("XXXX"))
         );
-        assert_eq!(client.request(Request::MachineA), Ok(letters("XXXX")));
-        assert_eq!(client.request(Request::MachineB), Ok(letters("XXXX")));
+        assert_eq!(
+            client.request(Request::MachineA).unwrap(),
+            (letters("XXXX"))
+        );
+        assert_eq!(
+            client.request(Request::MachineB).unwrap(),
+            (letters("XXXX"))
+        );
         let Ok(Reply::TimeLeft { seconds }) = client.request(Request::TimeLeft) else {
             panic!("CTL must answer T<seconds>");
         };
         assert!((598..=600).contains(&seconds), "{seconds}");
-        assert_eq!(client.request(Request::Ping), Ok(Reply::Pong));
+        assert_eq!(client.request(Request::Ping).unwrap(), (Reply::Pong));
     }
 
     #[test]
@@ -278,12 +288,18 @@ mod tests {
             })
             .unwrap();
         assert_eq!(
-            client.request(Request::IncomingWarehouse),
-            Ok(letters("XGGB"))
+            client.request(Request::IncomingWarehouse).unwrap(),
+            (letters("XGGB"))
         );
-        assert_eq!(client.request(Request::MachineA), Ok(letters("XXRX")));
+        assert_eq!(
+            client.request(Request::MachineA).unwrap(),
+            (letters("XXRX"))
+        );
         std::thread::sleep(Duration::from_millis(200));
-        assert_eq!(client.request(Request::MachineA), Ok(letters("XXXG")));
+        assert_eq!(
+            client.request(Request::MachineA).unwrap(),
+            (letters("XXXG"))
+        );
     }
 
     #[test]
@@ -291,28 +307,29 @@ mod tests {
         let server = background("BBBB", 0);
         let mut a = RefereeClient::new(server.addr(), 0, POLICY).unwrap();
         let mut b = RefereeClient::new(server.addr(), 0, POLICY).unwrap();
-        assert_eq!(a.request(Request::Ping), Ok(Reply::Pong));
-        assert_eq!(b.request(Request::Ping), Ok(Reply::Pong));
+        assert_eq!(a.request(Request::Ping).unwrap(), (Reply::Pong));
+        assert_eq!(b.request(Request::Ping).unwrap(), (Reply::Pong));
     }
 
     #[test]
     fn single_threaded_poll_with_the_callers_clock() {
         let settings = MockSettings::for_round(1, 0, None, 0).unwrap();
         let mut server = MockServer::bind(loopback(), MockReferee::new(settings)).unwrap();
-        let mut client = RefereeClient::new(server.local_addr().unwrap(), 0, POLICY).unwrap();
+        let link =
+            crate::referee::client::RefereeLink::connect(server.local_addr().unwrap(), 0).unwrap();
         server.referee_mut().start(1_000_000);
-        client.send_request(Request::TimeLeft, 0).unwrap();
+        link.send(Request::TimeLeft).unwrap();
         let mut handled = Vec::new();
-        let mut reply = None;
+        let mut datagrams = Vec::new();
         for _ in 0..200 {
             handled.extend(server.poll(61_000_000).unwrap());
-            reply = client.poll(10_000);
-            if reply.is_some() {
+            datagrams.extend(link.receive());
+            if !datagrams.is_empty() {
                 break;
             }
             std::thread::sleep(Duration::from_millis(1));
         }
-        assert_eq!(reply, Some(Ok(Reply::TimeLeft { seconds: 540 })));
+        assert_eq!(datagrams, [b"T540".to_vec()]);
         assert_eq!(handled.len(), 1);
         assert_eq!(handled[0].request, "CTL");
         assert_eq!(handled[0].reply.as_deref(), Some("T540"));
@@ -333,6 +350,6 @@ mod tests {
             max_tries: 1,
         };
         let mut client = RefereeClient::new(server.addr(), 0, policy).unwrap();
-        assert_eq!(client.request(Request::Ping), Ok(Reply::Pong));
+        assert_eq!(client.request(Request::Ping).unwrap(), (Reply::Pong));
     }
 }

@@ -43,7 +43,7 @@ const RX_BATCH_CAPACITY: usize = 16;
 pub const DEFAULT_REFERENCE_TIMEOUT_US: u64 = 200_000;
 
 /// One telemetry batch from the Mega.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct WheelTelemetry {
     /// Cumulative encoder ticks since the Mega booted, per wheel (motor index order),
     /// wrapping.

@@ -34,7 +34,9 @@ pub const PART_PLATE_SIZE_M: (f64, f64) = (0.080, 0.020);
 pub const PICK_STANDOFF_M: f64 = 0.165;
 
 /// A part's type (competition.md §1.7).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
+)]
 pub enum PartColor {
     /// Raw: machine A, then B, then the outgoing warehouse.
     Red,

@@ -10,7 +10,9 @@ use std::fmt;
 use super::geometry::Vec2;
 
 /// A vertex id: the ArUco id the original named it after.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub struct WaypointId(pub u8);
 
 impl fmt::Display for WaypointId {

@@ -18,7 +18,7 @@ use crate::field::PartColor;
 pub type SlotLetters = [Option<PartColor>; 4];
 
 /// A request the robot sends.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Request {
     /// `PING`: connectivity check, answered `PONG`.
     Ping,

@@ -60,6 +60,17 @@ pub enum ClientError {
         /// How many times it was sent.
         tries: u32,
     },
+    /// Late answers to an earlier request may still arrive until `until_us`: a request now
+    /// could be answered by one of them (there are no request ids).
+    #[error(
+        "cannot send {request} yet: late answers to the previous request are expected until {until_us} µs"
+    )]
+    Draining {
+        /// The refused request.
+        request: Request,
+        /// When the tracker stops waiting for them, µs.
+        until_us: u64,
+    },
     /// Only invalid replies arrived in every try; the last one is given.
     #[error("no valid reply to {request} after {tries} tries; last: {last}")]
     BadReply {
@@ -70,9 +81,6 @@ pub enum ClientError {
         /// Why the last reply was rejected (names the text).
         last: ReplyError,
     },
-    /// The socket failed (address, bind or send).
-    #[error("referee socket: {0}")]
-    Io(String),
 }
 
 /// What the tracker wants from its caller at a given time.
@@ -99,11 +107,30 @@ struct Outstanding {
     last_bad: Option<ReplyError>,
 }
 
+/// Replies that may still come for sends the server has not answered, after their request
+/// ended: a retried request that got one answer, or one that timed out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Draining {
+    /// Datagrams still to be discarded.
+    strays: u32,
+    /// When the tracker stops waiting for them, µs.
+    until_us: u64,
+}
+
 /// The request/reply logic without a socket.
+///
+/// The server's replies carry no request id, and the answers to `IWP`, `OWP`, `MAP` and
+/// `MBP` look alike (four slot letters). So after a request ends while some of its sends are
+/// unanswered (it was retried, or it timed out), the late answers to those sends are
+/// discarded: the tracker refuses the next request ([`RequestTracker::ready`] is false)
+/// until as many datagrams have arrived as there were unanswered sends, or until the last
+/// try's deadline (after a timeout: one more first timeout) has passed. A reply later still
+/// than that would be taken for the next request's; the timeouts bound how late that is.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RequestTracker {
     policy: RetryPolicy,
     outstanding: Option<Outstanding>,
+    draining: Option<Draining>,
 }
 
 impl RequestTracker {
@@ -112,6 +139,7 @@ impl RequestTracker {
         Self {
             policy,
             outstanding: None,
+            draining: None,
         }
     }
 
@@ -130,6 +158,12 @@ impl RequestTracker {
         self.outstanding.as_ref().map(|o| o.deadline_us)
     }
 
+    /// True when a request may start at `now_us`: none is outstanding and no late answer
+    /// to an earlier one is still expected.
+    pub fn ready(&self, now_us: u64) -> bool {
+        self.outstanding.is_none() && self.draining.is_none_or(|d| now_us >= d.until_us)
+    }
+
     /// Begin `request` at `now_us`; the caller sends its text now.
     pub fn start(&mut self, request: Request, now_us: u64) -> Result<(), ClientError> {
         if let Some(outstanding) = self.outstanding() {
@@ -138,6 +172,13 @@ impl RequestTracker {
                 outstanding,
             });
         }
+        if let Some(draining) = self.draining.filter(|d| now_us < d.until_us) {
+            return Err(ClientError::Draining {
+                request,
+                until_us: draining.until_us,
+            });
+        }
+        self.draining = None;
         self.outstanding = Some(Outstanding {
             request,
             tries: 1,
@@ -153,11 +194,26 @@ impl RequestTracker {
     }
 
     /// A datagram from the server arrived. Returns the valid reply that ends the
-    /// outstanding request; `None` for an invalid reply (remembered) or when idle.
+    /// outstanding request; `None` for an invalid reply (remembered), a late answer to an
+    /// earlier request (discarded), or when idle.
     pub fn on_datagram(&mut self, datagram: &[u8]) -> Option<Reply> {
-        let outstanding = self.outstanding.as_mut()?;
+        let Some(outstanding) = self.outstanding.as_mut() else {
+            if let Some(draining) = self.draining.as_mut() {
+                draining.strays = draining.strays.saturating_sub(1);
+                if draining.strays == 0 {
+                    self.draining = None;
+                }
+            }
+            return None;
+        };
         match parse_reply(outstanding.request, datagram) {
             Ok(reply) => {
+                // Every earlier send of this request may still be answered.
+                let strays = outstanding.tries - 1;
+                self.draining = (strays > 0).then_some(Draining {
+                    strays,
+                    until_us: outstanding.deadline_us,
+                });
                 self.outstanding = None;
                 Some(reply)
             }
@@ -193,6 +249,10 @@ impl RequestTracker {
             None => ClientError::Timeout { request, tries },
         };
         self.outstanding = None;
+        self.draining = Some(Draining {
+            strays: tries,
+            until_us: now_us.saturating_add(self.policy.first_timeout_us),
+        });
         Step::Done(Err(error))
     }
 }
@@ -310,6 +370,60 @@ mod tests {
         );
         t.cancel();
         assert!(t.start(Request::MachineB, 0).is_ok());
+    }
+
+    /// The reproducer from the review: with a 400 ms timeout, the server answers every
+    /// datagram 650 ms after it was sent. `IWP` is retried at 400 ms; the answer to its first
+    /// send (650 ms) ends it; the answer to the retry (1050 ms) must not end the next request,
+    /// `OWP`, whose strings look the same.
+    #[test]
+    fn a_late_answer_to_an_earlier_request_is_never_taken_for_the_next_one() {
+        let policy = RetryPolicy {
+            first_timeout_us: 400_000,
+            max_tries: 3,
+        };
+        let mut t = RequestTracker::new(policy);
+        t.start(Request::IncomingWarehouse, 0).unwrap();
+        assert_eq!(t.step(400_000), Step::Send(Request::IncomingWarehouse));
+        let incoming = b"RGGB";
+        assert!(matches!(t.on_datagram(incoming), Some(Reply::Slots(_))));
+        // The robot wants OWP on its next tick: not before the retry's answer is in.
+        assert!(!t.ready(660_000));
+        assert!(matches!(
+            t.start(Request::OutgoingWarehouse, 660_000),
+            Err(ClientError::Draining { .. })
+        ));
+        // The retry's answer arrives and is discarded.
+        assert_eq!(t.on_datagram(incoming), None);
+        assert!(t.ready(1_060_000));
+        t.start(Request::OutgoingWarehouse, 1_060_000).unwrap();
+        let outgoing = b"XXXB";
+        assert_eq!(
+            t.on_datagram(outgoing),
+            Some(Reply::Slots([None, None, None, Some(Blue)]))
+        );
+    }
+
+    #[test]
+    fn after_a_timeout_late_answers_are_awaited_for_one_more_first_timeout() {
+        let mut t = RequestTracker::new(POLICY);
+        t.start(Request::MachineA, 0).unwrap();
+        let mut now = 0;
+        let result = loop {
+            now += 10_000;
+            if let Step::Done(result) = t.step(now) {
+                break result;
+            }
+        };
+        assert!(matches!(result, Err(ClientError::Timeout { tries: 3, .. })));
+        assert!(!t.ready(now + POLICY.first_timeout_us - 1));
+        assert_eq!(t.on_datagram(b"BXXX"), None, "a late answer to MAP");
+        assert!(t.ready(now + POLICY.first_timeout_us));
+        // A request answered at the first try leaves nothing to wait for.
+        t.start(Request::MachineB, now + POLICY.first_timeout_us)
+            .unwrap();
+        assert!(t.on_datagram(b"XXXX").is_some());
+        assert!(t.ready(now + POLICY.first_timeout_us));
     }
 
     /// One event in a random exchange.

@@ -117,7 +117,7 @@ pub enum ImuError {
 }
 
 /// One scaled reading, in the chip's axes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ImuSample {
     /// Time the read completed, µs (caller's monotonic clock).
     pub time_us: u64,

@@ -72,7 +72,7 @@ impl Default for ScanConfig {
 }
 
 /// One point of a scan, in the lidar's frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ScanPoint {
     /// Bearing, rad, counter-clockwise, in [−π, π) (see the module doc).
     pub angle_rad: f64,
@@ -83,7 +83,7 @@ pub struct ScanPoint {
 }
 
 /// One revolution of the X4.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scan {
     /// Estimated acquisition time of the revolution's first sample, µs, on the caller's
     /// clock (see the module doc).

@@ -1,0 +1,134 @@
+//! `[competition]` and `[mission]`: which round the robot plays and with which software, how
+//! it reads the organisers' server, what its task planner assumes, and the mission's
+//! timing. These are the robot's settings (what it does on the floor), read by the core.
+
+use serde::{Deserialize, Serialize};
+
+use super::check::Checker;
+use crate::mission::MissionConfig;
+
+/// Which software drives the robot: the one enum behind `--policy` and `[competition]
+/// policy`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum Policy {
+    /// Our task planner (branch and bound) and our navigation (route planner, holonomic
+    /// follower, docking on the switch).
+    #[default]
+    Ours,
+    /// The original 5dpo team's priority planner, line follower and creep to the switch
+    /// (original-system.md §6), for comparison.
+    Original,
+}
+
+impl Policy {
+    /// Both policies, ours first.
+    pub const ALL: [Self; 2] = [Self::Ours, Self::Original];
+
+    /// The name used in the CLI, the config and the logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Ours => "ours",
+            Self::Original => "original",
+        }
+    }
+}
+
+impl std::fmt::Display for Policy {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The round and how the robot plays it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CompetitionConfig {
+    /// Round number, 1–3: the rules the planner follows (competition.md §2). The team sets
+    /// it before each round; the server does not say which round it is.
+    pub round: u8,
+    /// Who plans and drives.
+    pub policy: Policy,
+    /// Machine processing time the planner assumes, s. 0: the rules let the organisers set
+    /// it (competition.md §2); the 2022–2023 finals used none.
+    pub machine_delay_s: f64,
+    /// How often the robot asks the server for the part list while waiting for the start,
+    /// and at most how often it reads the four areas (`IWP OWP MAP MBP`) while driving to a
+    /// pick, s. 0.2: assumption, ten times the 50 Hz tick and well above the server's
+    /// reply time on a venue's Wi-Fi (tens of ms); the original polled only at start.
+    pub poll_period_s: f64,
+    /// Time the planner charges for a pick (dock, grip, back out), s. 1.0: the mission's
+    /// docking approach and grip settle as measured in simulated rounds (≈ 1 s).
+    pub planner_pick_s: f64,
+    /// Time the planner charges for a drop (release, back out), s. 0.8: as above.
+    pub planner_drop_s: f64,
+    /// Travel speed the planner assumes between slots, m/s. 0.4: the original's cruise
+    /// speed (original-system.md §6.3); only the order of actions depends on it.
+    pub planner_speed_m_s: f64,
+    /// Turn rate the planner assumes, rad/s. 0.8: the original's (original-system.md §6.3).
+    pub planner_turn_rate_rad_s: f64,
+}
+
+impl Default for CompetitionConfig {
+    fn default() -> Self {
+        Self {
+            round: 3,
+            policy: Policy::Ours,
+            machine_delay_s: 0.0,
+            poll_period_s: 0.2,
+            planner_pick_s: 1.0,
+            planner_drop_s: 0.8,
+            planner_speed_m_s: 0.4,
+            planner_turn_rate_rad_s: 0.8,
+        }
+    }
+}
+
+impl CompetitionConfig {
+    /// Longest machine delay accepted, s: the round itself lasts at most a few minutes.
+    pub const MAX_MACHINE_DELAY_S: f64 = 300.0;
+
+    pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.require("round", (1..=3).contains(&self.round), || {
+            format!("must be 1, 2 or 3 (got {})", self.round)
+        });
+        c.within(
+            "machine_delay_s",
+            self.machine_delay_s,
+            0.0,
+            Self::MAX_MACHINE_DELAY_S,
+        );
+        c.within("poll_period_s", self.poll_period_s, 0.02, 10.0);
+        c.within("planner_pick_s", self.planner_pick_s, 0.0, 60.0);
+        c.within("planner_drop_s", self.planner_drop_s, 0.0, 60.0);
+        c.within("planner_speed_m_s", self.planner_speed_m_s, 0.01, 5.0);
+        c.within(
+            "planner_turn_rate_rad_s",
+            self.planner_turn_rate_rad_s,
+            0.01,
+            50.0,
+        );
+    }
+
+    /// The poll period in µs.
+    pub fn poll_period_us(&self) -> u64 {
+        (self.poll_period_s * 1e6).round() as u64
+    }
+}
+
+impl MissionConfig {
+    pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.within("drive_timeout_s", self.drive_timeout_s, 0.1, 600.0);
+        c.within("grip_settle_s", self.grip_settle_s, 0.0, 10.0);
+        c.within("release_settle_s", self.release_settle_s, 0.0, 10.0);
+        c.within("back_out_m", self.back_out_m, 0.0, 0.5);
+        c.within("back_out_speed_m_s", self.back_out_speed_m_s, 0.01, 2.0);
+        c.within("back_out_accel_m_s2", self.back_out_accel_m_s2, 0.01, 20.0);
+        c.require(
+            "max_attempts",
+            (1..=10).contains(&self.max_attempts),
+            || format!("must be within [1, 10] (got {})", self.max_attempts),
+        );
+    }
+}

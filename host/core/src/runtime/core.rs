@@ -1,0 +1,189 @@
+//! The core: the robot's whole software behind one step function.
+
+use serde::Serialize;
+
+use crate::config::Config;
+use crate::field::geometry::Pose2;
+use crate::kinematics::BodyTwist;
+use crate::localisation::Health;
+use crate::planning::tasks::TaskError;
+use crate::robot::{EstimatorKind, InputCounts, Robot};
+
+use super::brain::{Brain, Phase};
+use super::event::Event;
+use super::input::{Input, OperatorCommand, Stamped, Timestamp};
+use super::output::{LidarCommand, Outputs, WheelCommand};
+
+/// What a display shows of the core (the HMI, the live status line, the logs).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Status {
+    /// The time of the last input.
+    pub time: Timestamp,
+    /// The pose estimate, world frame.
+    pub pose: Pose2,
+    /// Standard deviations of the estimate: position (largest axis), m, and heading, rad.
+    pub pose_std: (f64, f64),
+    /// Where the round is.
+    pub phase: Phase,
+    /// When the round's clock started (the part list), if it has.
+    pub started: Option<Timestamp>,
+    /// The operator has stopped the robot.
+    pub stopped: bool,
+    /// Parts placed so far (the robot's own count, not the referee's points).
+    pub placed: u32,
+    /// The box switch as last reported.
+    pub switch_pressed: bool,
+    /// What the core has received.
+    pub inputs: InputCounts,
+}
+
+/// The robot's software: see the module documentation of [`crate::runtime`].
+#[derive(Debug)]
+pub struct Core {
+    robot: Robot,
+    brain: Brain,
+    stopped: bool,
+    lidar_started: bool,
+    placed: u32,
+    time: Timestamp,
+}
+
+impl Core {
+    /// A core for `config` (its round, policy and beliefs), believing the robot starts at
+    /// `start_pose`, with our localiser.
+    pub fn new(config: &Config, start_pose: Pose2) -> Result<Self, TaskError> {
+        Self::with_estimator(config, EstimatorKind::Localiser, start_pose)
+    }
+
+    /// A core with the pose estimator `kind`.
+    pub fn with_estimator(
+        config: &Config,
+        kind: EstimatorKind,
+        start_pose: Pose2,
+    ) -> Result<Self, TaskError> {
+        Ok(Self {
+            robot: Robot::with_estimator(config, kind, start_pose),
+            brain: Brain::new(config)?,
+            stopped: false,
+            lidar_started: false,
+            placed: 0,
+            time: Timestamp::ZERO,
+        })
+    }
+
+    /// Consume one input; what the devices must do and what happened.
+    pub fn step(&mut self, stamped: &Stamped) -> Outputs {
+        let now_us = stamped.time.as_us();
+        self.time = stamped.time;
+        let mut outputs = Outputs::default();
+        match &stamped.input {
+            Input::HostTick => self.on_tick(now_us, &mut outputs),
+            Input::Wheels(_) | Input::MegaReset | Input::Scan(_) | Input::Imu(_) => {
+                self.robot.handle(stamped)
+            }
+            Input::Referee { datagram } => {
+                self.brain
+                    .on_datagram(now_us, datagram, &mut outputs.events)
+            }
+            Input::Operator(command) => self.on_operator(now_us, command, &mut outputs),
+            Input::DeviceFault { device, message } => {
+                self.stopped = true;
+                outputs.wheels = Some(WheelCommand::STOP);
+                outputs.events.push(Event::DeviceFault {
+                    device: *device,
+                    message: message.clone(),
+                });
+            }
+        }
+        self.placed += outputs
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::Placed { .. }))
+            .count() as u32;
+        outputs
+    }
+
+    fn on_tick(&mut self, now_us: u64, outputs: &mut Outputs) {
+        if !self.lidar_started {
+            self.lidar_started = true;
+            outputs.lidar = Some(LidarCommand::StartScan);
+        }
+        let tick = self.brain.tick(
+            now_us,
+            self.robot.pose(),
+            self.robot.switch_pressed(),
+            &mut outputs.events,
+        );
+        outputs.referee = tick.request;
+        if self.stopped {
+            self.robot.command_motion(BodyTwist::default());
+            self.robot.command_solenoid(false);
+        } else {
+            self.robot.command_motion(tick.twist);
+            self.robot.command_solenoid(tick.solenoid_on);
+        }
+        let wheels = self.robot.tick(now_us);
+        outputs.wheels = Some(WheelCommand {
+            wheel_speeds_rad_s: wheels.wheel_speeds_rad_s,
+            solenoid_on: wheels.solenoid_on,
+            twist_scale: wheels.twist_scale,
+        });
+    }
+
+    fn on_operator(&mut self, now_us: u64, command: &OperatorCommand, outputs: &mut Outputs) {
+        match command {
+            OperatorCommand::ForceStart { parts } => {
+                self.brain.force_start(now_us, *parts, &mut outputs.events)
+            }
+            OperatorCommand::Stop => {
+                self.stopped = true;
+                outputs.wheels = Some(WheelCommand::STOP);
+                outputs.events.push(Event::Stopped);
+            }
+            OperatorCommand::Resume => {
+                self.stopped = false;
+                outputs.events.push(Event::Resumed);
+            }
+            OperatorCommand::SetPose { pose } => {
+                self.robot.reset_pose(*pose, now_us);
+                outputs.events.push(Event::PoseSet { pose: *pose });
+            }
+        }
+    }
+
+    /// The estimation and the wheel kinematics (pose, odometry, health).
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The competition brain (phase, planner).
+    pub fn brain(&self) -> &Brain {
+        &self.brain
+    }
+
+    /// The pose estimate, world frame.
+    pub fn pose(&self) -> Pose2 {
+        self.robot.pose()
+    }
+
+    /// The estimator's health.
+    pub fn localisation_health(&self) -> Health {
+        self.robot.localisation_health()
+    }
+
+    /// What a display shows now.
+    pub fn status(&self) -> Status {
+        let health = self.robot.localisation_health();
+        Status {
+            time: self.time,
+            pose: self.robot.pose(),
+            pose_std: (health.position_std_m, health.heading_std_rad),
+            phase: self.brain.phase(),
+            started: self.brain.started_at_us().map(Timestamp::from_us),
+            stopped: self.stopped,
+            placed: self.placed,
+            switch_pressed: self.robot.switch_pressed(),
+            inputs: self.robot.input_counts(),
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! What the core reports, in words a team uses.
+
+use serde::{Deserialize, Serialize};
+
+use crate::field::geometry::Pose2;
+use crate::field::stations::SlotKind;
+use crate::field::waypoints::WaypointId;
+use crate::field::{Field, MachineKind, PartColor};
+use crate::mission::SkipReason;
+
+use super::input::DeviceKind;
+
+/// Something that happened in the core.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum Event {
+    /// The part list is known (from the server's first `IWP`, or forced by the operator):
+    /// the round's clock starts.
+    PartList {
+        /// Incoming slots 1–4 (`None` = empty).
+        parts: [Option<PartColor>; 4],
+        /// The operator forced the start (no answer from the server needed).
+        forced: bool,
+    },
+    /// The mission began an action: fetch the part at `pick`, put it at `drop`.
+    ActionStarted {
+        /// Where the part stands (slot waypoint).
+        pick: WaypointId,
+        /// Where it goes.
+        drop: WaypointId,
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+        /// Attempt number, from 1.
+        attempt: u32,
+    },
+    /// The magnet holds the part.
+    Picked {
+        /// Where it was.
+        slot: WaypointId,
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
+    /// The part was released at its drop slot and the switch opened.
+    Placed {
+        /// Where it is now.
+        slot: WaypointId,
+        /// Its colour as the planner knew it when picked.
+        color: Option<PartColor>,
+    },
+    /// An action failed for good; the planner carries on with the other parts.
+    Skipped {
+        /// Where the part stood.
+        pick: WaypointId,
+        /// Where it was to go.
+        drop: WaypointId,
+        /// Why.
+        reason: SkipReason,
+    },
+    /// Nothing left to do: the robot parks.
+    Finished,
+    /// The server's strings disagreed with what the robot knew; it re-plans from them.
+    ServerDisagrees {
+        /// Parts that vanished, appeared, moved or changed colour.
+        parts: usize,
+        /// The four strings, `IWP OWP MAP MBP`.
+        areas: String,
+    },
+    /// A request to the server got no valid answer in all its tries.
+    RefereeFailed {
+        /// Why (the tracker's words).
+        message: String,
+    },
+    /// The operator stopped the robot.
+    Stopped,
+    /// The operator let it go on.
+    Resumed,
+    /// The operator placed the robot: the pose estimate restarted here.
+    PoseSet {
+        /// The pose, world frame.
+        pose: Pose2,
+    },
+    /// A device failed; the robot stopped.
+    DeviceFault {
+        /// Which device.
+        device: DeviceKind,
+        /// What happened.
+        message: String,
+    },
+}
+
+fn color_word(color: Option<PartColor>) -> &'static str {
+    match color {
+        Some(PartColor::Red) => "red",
+        Some(PartColor::Green) => "green",
+        Some(PartColor::Blue) => "blue",
+        None => "unknown",
+    }
+}
+
+fn letters(parts: &[Option<PartColor>; 4]) -> String {
+    parts
+        .iter()
+        .map(|c| c.map_or('X', PartColor::letter))
+        .collect()
+}
+
+/// A slot as a team names it: "incoming slot 2", "machine A (upper) input",
+/// "outgoing slot 4"; slots are numbered 1–4 in the field's order (competition.md §1).
+pub fn slot_name(field: &Field, id: WaypointId) -> String {
+    let Some(slot) = field.slot_for_waypoint(id) else {
+        return format!("waypoint {}", id.0);
+    };
+    let numbered = |kind: SlotKind, name: &str| {
+        let index = field
+            .slots()
+            .filter(|s| s.kind == kind)
+            .position(|s| s.waypoint == id)
+            .map_or(0, |i| i + 1);
+        format!("{name} slot {index}")
+    };
+    match slot.kind {
+        SlotKind::Incoming => numbered(SlotKind::Incoming, "incoming"),
+        SlotKind::Outgoing => numbered(SlotKind::Outgoing, "outgoing"),
+        SlotKind::MachineInput | SlotKind::MachineOutput => {
+            let side = if slot.kind == SlotKind::MachineInput {
+                "input"
+            } else {
+                "output"
+            };
+            for kind in [MachineKind::A, MachineKind::B] {
+                for machine in &field.machine_block(kind).machines {
+                    if machine.input.waypoint == id || machine.output.waypoint == id {
+                        let row = if machine.row == 0 { "upper" } else { "lower" };
+                        let letter = if kind == MachineKind::A { 'A' } else { 'B' };
+                        return format!("machine {letter} ({row}) {side}");
+                    }
+                }
+            }
+            format!("machine {side} {}", id.0)
+        }
+    }
+}
+
+impl Event {
+    /// The event in a team's words, e.g. `picked red from incoming slot 1`.
+    pub fn describe(&self, field: &Field) -> String {
+        let slot = |id: &WaypointId| slot_name(field, *id);
+        match self {
+            Self::PartList { parts, forced } => {
+                let how = if *forced {
+                    ", forced by the operator"
+                } else {
+                    " from the server"
+                };
+                format!("part list {}{how}: the clock starts", letters(parts))
+            }
+            Self::ActionStarted {
+                pick,
+                drop,
+                color,
+                attempt,
+            } => {
+                let again = if *attempt > 1 {
+                    format!(" (attempt {attempt})")
+                } else {
+                    String::new()
+                };
+                format!(
+                    "going for the {} part at {}, for {}{again}",
+                    color_word(*color),
+                    slot(pick),
+                    slot(drop)
+                )
+            }
+            Self::Picked { slot: at, color } => {
+                format!("picked {} from {}", color_word(*color), slot(at))
+            }
+            Self::Placed { slot: at, color } => {
+                format!("placed {} on {}", color_word(*color), slot(at))
+            }
+            Self::Skipped { pick, drop, reason } => {
+                let why = match reason {
+                    SkipReason::NoContact => "the switch never closed on it",
+                    SkipReason::NotHeld => "the magnet did not hold it",
+                    SkipReason::Unreachable => "no way there in time",
+                    SkipReason::Stuck => "it stayed on the magnet",
+                };
+                format!(
+                    "gave up the part at {} for {}: {why}",
+                    slot(pick),
+                    slot(drop)
+                )
+            }
+            Self::Finished => "finished: nothing left to do, parked".to_owned(),
+            Self::ServerDisagrees { parts, areas } => {
+                format!("the server disagrees on {parts} part(s) ({areas}): re-planning")
+            }
+            Self::RefereeFailed { message } => format!("server: {message}"),
+            Self::Stopped => "stopped by the operator".to_owned(),
+            Self::Resumed => "resumed by the operator".to_owned(),
+            Self::PoseSet { pose } => format!(
+                "pose set by the operator: ({:.3}, {:.3}) m, {:.1}°",
+                pose.x,
+                pose.y,
+                pose.yaw_rad.to_degrees()
+            ),
+            Self::DeviceFault { device, message } => {
+                format!("{device} failed: {message}; stopped")
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slots_read_as_a_team_names_them() {
+        let field = Field::competition();
+        let names: Vec<String> = field
+            .slots()
+            .map(|s| slot_name(&field, s.waypoint))
+            .collect();
+        for expected in [
+            "incoming slot 1",
+            "incoming slot 4",
+            "outgoing slot 1",
+            "outgoing slot 4",
+            "machine A (upper) input",
+            "machine B (lower) output",
+        ] {
+            assert!(names.iter().any(|n| n == expected), "{expected}: {names:?}");
+        }
+        // Every slot has its own name.
+        let mut unique = names.clone();
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), names.len(), "{names:?}");
+    }
+
+    #[test]
+    fn events_read_as_sentences() {
+        let field = Field::competition();
+        let incoming = field
+            .slots()
+            .find(|s| s.kind == SlotKind::Incoming)
+            .unwrap()
+            .waypoint;
+        let picked = Event::Picked {
+            slot: incoming,
+            color: Some(PartColor::Red),
+        };
+        assert_eq!(picked.describe(&field), "picked red from incoming slot 1");
+        let list = Event::PartList {
+            parts: [Some(PartColor::Red), None, Some(PartColor::Green), None],
+            forced: true,
+        };
+        assert_eq!(
+            list.describe(&field),
+            "part list RXGX, forced by the operator: the clock starts"
+        );
+    }
+}

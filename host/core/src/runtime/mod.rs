@@ -1,0 +1,28 @@
+//! The runtime seam: the robot's software as a fold over timestamped inputs.
+//!
+//! [`Core::step`] takes one [`Stamped`] [`Input`] — the host's 50 Hz tick, Mega telemetry
+//! and resets, lidar scans, IMU samples, datagrams from the organisers' server, operator
+//! commands, device faults — and returns the [`Outputs`] for the devices: the wheel command
+//! and the magnet (at a tick), at most one request to the server, the lidar's start command,
+//! and what happened ([`Event`]s). [`Core::status`] is what a display shows. The core reads
+//! no clock: every input carries its [`Timestamp`] (µs on the robot's monotonic clock), so a
+//! recording of the inputs replays exactly.
+//!
+//! [`run`] is the one loop that drives a core with a set of [`Devices`] — the simulated
+//! world (`ratf-sim`), the real ports, or a recording — and [`Tap`]s that see every input
+//! and output in order (the recorder, status subscribers). `ratf sim`, `ratf run` and `ratf
+//! replay` differ only in the devices they pass (architecture.md, "The runtime").
+
+mod brain;
+mod core;
+mod event;
+mod input;
+mod output;
+mod run;
+
+pub use self::brain::{Brain, Phase};
+pub use self::core::{Core, Status};
+pub use self::event::{Event, slot_name};
+pub use self::input::{DeviceKind, Input, OperatorCommand, Stamped, Timestamp};
+pub use self::output::{LidarCommand, Outputs, WheelCommand};
+pub use self::run::{Devices, Flow, RunSummary, Tap, run};

@@ -1,0 +1,61 @@
+//! What the core asks of the devices after an input.
+
+use serde::{Deserialize, Serialize};
+
+use super::event::Event;
+use crate::referee::protocol::Request;
+
+/// The wheel references and the magnet, sent to the Mega at every host tick.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WheelCommand {
+    /// Wheel speed references, wheel rad/s, motor index order (wire convention).
+    pub wheel_speeds_rad_s: [f32; 4],
+    /// Electromagnet level.
+    pub solenoid_on: bool,
+    /// The factor the commanded twist was scaled by to respect the wheel limit (1 = none).
+    pub twist_scale: f64,
+}
+
+impl WheelCommand {
+    /// Wheels at zero, magnet off: what a stop sends.
+    pub const STOP: Self = Self {
+        wheel_speeds_rad_s: [0.0; 4],
+        solenoid_on: false,
+        twist_scale: 1.0,
+    };
+}
+
+/// A command for the lidar (bring-up through the seam: the X4 streams only once told).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LidarCommand {
+    /// Start scanning (`A5 60`).
+    StartScan,
+}
+
+/// Everything one input produced.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outputs {
+    /// The wheel command, at a host tick.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub wheels: Option<WheelCommand>,
+    /// A request to send to the organisers' server now (first try or a retry).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub referee: Option<Request>,
+    /// A command for the lidar.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lidar: Option<LidarCommand>,
+    /// What happened.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub events: Vec<Event>,
+}
+
+impl Outputs {
+    /// True when there is nothing for the devices or the taps.
+    pub fn is_empty(&self) -> bool {
+        self.wheels.is_none()
+            && self.referee.is_none()
+            && self.lidar.is_none()
+            && self.events.is_empty()
+    }
+}

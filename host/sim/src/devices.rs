@@ -1,0 +1,189 @@
+//! The simulated world as the runtime's devices: what the robot's ports would deliver, as
+//! the core's timestamped inputs, and the core's outputs carried back into the world.
+//!
+//! Per world step (1 ms): bytes that arrived from the Mega go through the core's
+//! [`MegaLink`], bytes from the lidar through its [`X4Driver`], and the IMU is read through
+//! its driver at 200 Hz on the simulated I2C bus; then, on the host's own 50 Hz timer
+//! (offset from the Mega's tick by [`HOST_TICK_PHASE_US`], as two free-running clocks would
+//! be), a [`Input::HostTick`]. The inputs of one step are handed out in that order; the
+//! world steps again only when they are all consumed ([`SimDevices::step_complete`]).
+
+use std::collections::VecDeque;
+
+use ratf_core::config::Config;
+use ratf_core::drivers::imu::{ImuConfig as ImuDriverConfig, ImuError, Mpu9255};
+use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
+use ratf_core::drivers::x4::X4Driver;
+use ratf_core::drivers::x4::scan::ScanConfig;
+use ratf_core::rng::SimRng;
+use ratf_core::runtime::{Devices, Input, Outputs, Stamped, Timestamp};
+
+use crate::world::{Scenario, SimImuBus, World};
+
+/// Period of the host's reference timer, µs (50 Hz, the Mega's control rate).
+pub const HOST_TICK_PERIOD_US: u64 = 20_000;
+/// Offset of the host's timer from the Mega's tick, µs: an arbitrary 7 ms, so the two clocks
+/// are not artificially in phase.
+pub const HOST_TICK_PHASE_US: u64 = 7_000;
+/// IMU read period, µs (200 Hz, the rate the driver configures).
+pub const IMU_PERIOD_US: u64 = 5_000;
+
+/// The simulated robot's devices.
+#[derive(Debug)]
+pub struct SimDevices {
+    world: World,
+    mega: MegaLink,
+    lidar: X4Driver,
+    imu: Mpu9255<SimImuBus>,
+    next_host_tick_us: u64,
+    next_imu_us: u64,
+    pending: VecDeque<Stamped>,
+    scan_drop: Option<(f64, SimRng)>,
+    wheel_batches: usize,
+}
+
+impl SimDevices {
+    /// Build the world of `scenario` and the device drivers of `config`.
+    pub fn new(config: &Config, scenario: &Scenario) -> Result<Self, ImuError> {
+        let world = World::new(config, scenario);
+        let imu = Mpu9255::new(world.imu_bus(), ImuDriverConfig::default())?;
+        Ok(Self {
+            mega: MegaLink::new(MegaLinkConfig {
+                send_checksums: config.mega.send_checksums,
+                baud: config.link.mega_baud,
+                telemetry_latency_us: config.mega.telemetry_latency_us,
+            }),
+            lidar: X4Driver::new(ScanConfig {
+                range_min_m: config.lidar.min_range_m,
+                range_max_m: config.lidar.max_range_m,
+                ..ScanConfig::default()
+            }),
+            imu,
+            next_host_tick_us: HOST_TICK_PHASE_US,
+            next_imu_us: IMU_PERIOD_US,
+            pending: VecDeque::new(),
+            scan_drop: None,
+            wheel_batches: 0,
+            world,
+        })
+    }
+
+    /// The world (ground truth, for reports).
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The world, to inject faults.
+    pub fn world_mut(&mut self) -> &mut World {
+        &mut self.world
+    }
+
+    /// Simulated time, µs.
+    pub fn now_us(&self) -> u64 {
+        self.world.now_us()
+    }
+
+    /// Fault injection: drop each completed lidar scan with probability `probability`
+    /// (drawn from `seed`) before it reaches the core, as a USB hiccup would.
+    pub fn drop_scans(&mut self, probability: f64, seed: u64) {
+        self.scan_drop = Some((probability, SimRng::new(seed).fork("scan-drop")));
+    }
+
+    /// True when every input of the last world step has been handed out: the next
+    /// [`Self::pop_input`] finds none and the world must [`Self::advance`].
+    pub fn step_complete(&self) -> bool {
+        self.pending.is_empty()
+    }
+
+    /// Telemetry batches handed out so far.
+    pub fn wheel_batches(&self) -> usize {
+        self.wheel_batches
+    }
+
+    /// The true pose when the Mega counted the encoders for the last telemetry batch handed
+    /// out: the ground truth the core's odometry refers to, without the telemetry's time in
+    /// flight. `None` before the first batch.
+    pub fn truth_at_last_telemetry(&self) -> Option<ratf_core::field::geometry::Pose2> {
+        self.wheel_batches
+            .checked_sub(1)
+            .and_then(|i| self.world.tick_poses().get(i).copied())
+    }
+
+    /// The next input of the current world step, if any is left.
+    pub fn pop_input(&mut self) -> Option<Stamped> {
+        let input = self.pending.pop_front()?;
+        if matches!(input.input, Input::Wheels(_)) {
+            self.wheel_batches += 1;
+        }
+        Some(input)
+    }
+
+    /// Step the world once and queue what the devices delivered in that step.
+    pub fn advance(&mut self) -> Result<(), ImuError> {
+        self.world.step();
+        let now_us = self.world.now_us();
+        let time = Timestamp::from_us(now_us);
+        let pending = &mut self.pending;
+        let bytes = self.world.receive_from_mega();
+        self.mega.feed(&bytes, now_us, |event| {
+            let input = match event {
+                MegaEvent::Telemetry(telemetry) => Input::Wheels(telemetry),
+                MegaEvent::Reset { .. } => Input::MegaReset,
+            };
+            pending.push_back(Stamped::new(time, input));
+        });
+        let bytes = self.world.receive_from_lidar();
+        let scan_drop = &mut self.scan_drop;
+        self.lidar.feed(&bytes, now_us, |scan| {
+            let dropped = scan_drop
+                .as_mut()
+                .is_some_and(|(probability, rng)| rng.chance(*probability));
+            if !dropped {
+                pending.push_back(Stamped::new(time, Input::Scan(scan)));
+            }
+        });
+        if now_us >= self.next_imu_us {
+            let sample = self.imu.read_sample(now_us)?;
+            self.pending
+                .push_back(Stamped::new(time, Input::Imu(sample)));
+            self.next_imu_us += IMU_PERIOD_US;
+        }
+        if now_us >= self.next_host_tick_us {
+            self.next_host_tick_us += HOST_TICK_PERIOD_US;
+            self.pending.push_back(Stamped::new(time, Input::HostTick));
+        }
+        Ok(())
+    }
+
+    /// Carry the core's outputs into the world: the wheel references and the magnet to the
+    /// Mega as a `G H I J L` batch.
+    pub fn apply_outputs(&mut self, outputs: &Outputs) {
+        // The core's references are finite by construction (limited inverse kinematics of a
+        // finite twist); a non-finite one is a bug upstream and is not sent.
+        if let Some(wheels) = outputs.wheels
+            && let Ok(bytes) = self
+                .mega
+                .encode_references(wheels.wheel_speeds_rad_s, wheels.solenoid_on)
+        {
+            self.world.send_to_mega(&bytes);
+        }
+    }
+}
+
+impl Devices for SimDevices {
+    type Error = ImuError;
+
+    fn next_input(&mut self) -> Result<Option<Stamped>, ImuError> {
+        loop {
+            if let Some(input) = self.pop_input() {
+                return Ok(Some(input));
+            }
+            self.advance()?;
+        }
+    }
+
+    fn apply(&mut self, _input: &Stamped, outputs: &Outputs) -> Result<(), ImuError> {
+        self.apply_outputs(outputs);
+        Ok(())
+    }
+}
