@@ -6,4 +6,5 @@
 
 pub mod apps;
 pub mod plot;
+pub mod recording;
 pub mod referee;

@@ -28,3 +28,66 @@ fn a_reader_that_stops_early_ends_the_program_quietly() {
     assert!(output.status.success(), "{:?}: {stderr}", output.status);
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// The last line of stdout, parsed as JSON.
+fn last_json_line(stdout: &[u8]) -> serde_json::Value {
+    let text = String::from_utf8_lossy(stdout);
+    let last = text.lines().last().unwrap_or_default();
+    serde_json::from_str(last).unwrap_or_else(|e| panic!("{e}: {last}"))
+}
+
+/// `ratf sim` prints where its recording is; `ratf replay FILE --json` ends with one line
+/// `{"inputs": N, "divergences": 0, "first_divergence": null, …}`.
+#[test]
+fn a_simulated_round_is_recorded_and_replays_without_divergence() {
+    let out_dir = std::env::temp_dir().join(format!("ratf-cli-replay-{}", std::process::id()));
+    let sim = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(["sim", "--round", "1", "--json", "--out"])
+        .arg(&out_dir)
+        .output()
+        .expect("ratf sim runs");
+    assert!(
+        sim.status.success(),
+        "{}",
+        String::from_utf8_lossy(&sim.stderr)
+    );
+    let text = String::from_utf8_lossy(&sim.stdout);
+    let recording = out_dir.join("sim-round1-seed1-ours.mcap");
+    assert!(
+        text.contains(&format!("ratf replay {}", recording.display())),
+        "{text}"
+    );
+    let replay = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .arg("replay")
+        .arg(&recording)
+        .arg("--json")
+        .output()
+        .expect("ratf replay runs");
+    let _ = std::fs::remove_dir_all(&out_dir);
+    assert!(
+        replay.status.success(),
+        "{}",
+        String::from_utf8_lossy(&replay.stderr)
+    );
+    let summary = last_json_line(&replay.stdout);
+    assert!(summary["inputs"].as_u64().unwrap() > 10_000, "{summary}");
+    assert_eq!(summary["divergences"], 0, "{summary}");
+    assert!(summary["first_divergence"].is_null(), "{summary}");
+}
+
+/// A file that is not a recording is a clear error, not a panic.
+#[test]
+fn replaying_something_that_is_not_a_recording_says_so() {
+    let path = std::env::temp_dir().join(format!("ratf-not-a-recording-{}", std::process::id()));
+    std::fs::write(&path, b"not an MCAP file").unwrap();
+    let replay = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .arg("replay")
+        .arg(&path)
+        .output()
+        .expect("ratf replay runs");
+    let _ = std::fs::remove_file(&path);
+    let stderr = String::from_utf8_lossy(&replay.stderr);
+    assert!(!replay.status.success());
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(stderr.contains("ratf-not-a-recording"), "{stderr}");
+}

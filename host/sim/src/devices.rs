@@ -186,4 +186,8 @@ impl Devices for SimDevices {
         self.apply_outputs(outputs);
         Ok(())
     }
+
+    fn ground_truth(&self) -> Option<ratf_core::field::geometry::Pose2> {
+        Some(self.world.body().pose)
+    }
 }

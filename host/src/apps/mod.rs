@@ -1,8 +1,10 @@
 //! Apps built on the core and the simulated world: a whole round ([`round`]), the velocity
-//! scripts ([`drive`], [`scripts`]) and the benchmarks ([`loc_bench`], [`nav_bench`]).
+//! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`]) and the
+//! replay of a recording ([`replay`]).
 
 pub mod drive;
 pub mod loc_bench;
 pub mod nav_bench;
+pub mod replay;
 pub mod round;
 pub mod scripts;

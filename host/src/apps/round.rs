@@ -18,9 +18,11 @@
 //! simulated instant (loopback delivers it before `send` returns).
 
 use std::net::SocketAddr;
+use std::path::Path;
 
 use serde::Serialize;
 
+use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
 use ratf_core::config::{Config, Policy};
@@ -130,6 +132,9 @@ pub enum RoundError {
     /// The IMU driver failed.
     #[error("simulated IMU: {0}")]
     Imu(#[from] ImuError),
+    /// The recording could not be written.
+    #[error("recording: {0}")]
+    Recording(#[from] Box<RecordingError>),
 }
 
 /// How a round is run.
@@ -283,6 +288,10 @@ impl Devices for RoundDevices {
             self.before_step(self.sim.now_us());
             self.sim.advance()?;
         }
+    }
+
+    fn ground_truth(&self) -> Option<Pose2> {
+        Some(self.sim.world().body().pose)
     }
 
     fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), RoundError> {
@@ -454,6 +463,32 @@ pub fn run_with_taps(
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
     })
+}
+
+/// Run a round and record it to `path` (see [`crate::recording`]); `on_event` hears the
+/// events as they happen.
+pub fn run_recorded(
+    config: &Config,
+    options: &RoundOptions,
+    path: &Path,
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    let applied = options.apply_to(config);
+    let session = Session {
+        kind: "sim".to_owned(),
+        config_toml: applied.to_toml_string().map_err(|e| {
+            RoundError::Recording(Box::new(RecordingError::Io {
+                path: path.to_owned(),
+                source: std::io::Error::other(e),
+            }))
+        })?,
+        start_pose: Scenario::new(&applied).start_pose,
+        version: env!("CARGO_PKG_VERSION").to_owned(),
+    };
+    let mut recorder = Recorder::create(path, &session).map_err(Box::new)?;
+    let report = run_with_taps(config, options, &mut [&mut recorder], on_event)?;
+    recorder.finish().map_err(Box::new)?;
+    Ok(report)
 }
 
 /// Run a round with no taps; `on_event` hears the events as they happen.

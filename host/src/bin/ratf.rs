@@ -48,6 +48,25 @@ enum Command {
     /// Benchmarks in the simulator.
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// Re-run the robot's core over a recording (`ratf sim` writes one) and report the first
+    /// divergence, or how another configuration changes the pose and the decisions.
+    Replay(ReplayArgs),
+}
+
+#[derive(Debug, Args)]
+struct ReplayArgs {
+    /// The recording (MCAP).
+    file: PathBuf,
+    /// Re-run with this configuration instead of the recorded one (the world does not
+    /// react: the recorded inputs are fed as they were).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Print the replayed events.
+    #[arg(long)]
+    events: bool,
+    /// Print one JSON object with the figures as the last line of stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Subcommand)]
@@ -204,6 +223,7 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
         Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
+        Command::Replay(args) => replay_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
                 match Config::load(&path) {
@@ -617,7 +637,8 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         ..round::RoundOptions::new(args.round, args.seed, args.policy)
     };
     let say = |t_s: f64, text: &str| println!("{t_s:7.2} s  {text}");
-    let report = round::run_round(&config, &options, |event| {
+    let recording_path = args.out.join(format!("{stem}.mcap"));
+    let report = round::run_recorded(&config, &options, &recording_path, |event| {
         let line = match event {
             RoundEvent::Tick {
                 time,
@@ -738,11 +759,83 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         report.heading_rmse_deg,
         wall_s
     );
-    println!("wrote {} and {}", svg_path.display(), log_path.display());
+    println!(
+        "wrote {}, {} and the recording {} (ratf replay {})",
+        svg_path.display(),
+        log_path.display(),
+        recording_path.display(),
+        recording_path.display()
+    );
     if args.json {
         let mut value = serde_json::to_value(&report)?;
         value["wall_s"] = serde_json::json!(wall_s);
         println!("{value}");
+    }
+    Ok(())
+}
+
+fn replay_command(args: &ReplayArgs) -> anyhow::Result<()> {
+    use ratf_host::apps::replay;
+    use ratf_host::recording::Recording;
+    let recording = Recording::read(&args.file)?;
+    let other = args.config.as_deref().map(Config::load).transpose()?;
+    let field = Field::competition();
+    let started = Instant::now();
+    let report = replay::replay(&recording, other.as_ref(), |time, event| {
+        if args.events {
+            println!("{:7.2} s  {}", time.as_secs_f64(), event.describe(&field));
+        }
+    })?;
+    let wall_s = started.elapsed().as_secs_f64();
+    println!(
+        "ratf replay {}: {} inputs over {:.1} s of robot time in {:.2} s wall ({:.0}× real time){}",
+        args.file.display(),
+        report.inputs,
+        report.robot_time_s,
+        wall_s,
+        report.robot_time_s / wall_s.max(1e-9),
+        if report.truncated {
+            "; the file ends early (read up to its last complete chunk)"
+        } else {
+            ""
+        }
+    );
+    match &report.first_divergence {
+        None => println!("0 divergences: every output as recorded"),
+        Some(d) => println!(
+            "{} divergence(s); the first at {:.3} s, input {} ({}): {} recorded {} replayed {}",
+            report.divergences,
+            d.time.as_secs_f64(),
+            d.input,
+            d.input_kind,
+            d.output,
+            d.recorded,
+            d.replayed
+        ),
+    }
+    if args.config.is_some() {
+        println!(
+            "pose estimate against the recording: max {:.1} mm, RMS {:.1} mm; events {} \
+             recorded, {} replayed",
+            report.max_pose_difference_m * 1e3,
+            report.rms_pose_difference_m * 1e3,
+            report.recorded_events,
+            report.replayed_events
+        );
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "inputs": report.inputs,
+                "divergences": report.divergences,
+                "first_divergence": report.first_divergence,
+                "max_pose_difference_m": report.max_pose_difference_m,
+                "rms_pose_difference_m": report.rms_pose_difference_m,
+                "robot_time_s": report.robot_time_s,
+                "wall_s": wall_s,
+            })
+        );
     }
     Ok(())
 }

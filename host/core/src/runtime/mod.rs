@@ -25,4 +25,4 @@ pub use self::core::{Core, Status};
 pub use self::event::{Event, slot_name};
 pub use self::input::{DeviceKind, Input, OperatorCommand, Stamped, Timestamp};
 pub use self::output::{LidarCommand, Outputs, WheelCommand};
-pub use self::run::{Devices, Flow, RunSummary, Tap, run};
+pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};

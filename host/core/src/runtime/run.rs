@@ -3,6 +3,7 @@
 use super::core::Core;
 use super::input::{Stamped, Timestamp};
 use super::output::Outputs;
+use crate::field::geometry::Pose2;
 
 /// A set of devices: where the core's inputs come from and where its outputs go. The
 /// simulated world, the real ports and a recording each implement it.
@@ -16,12 +17,31 @@ pub trait Devices {
 
     /// Carry out what the core asked after `input`.
     fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), Self::Error>;
+
+    /// The robot's true pose now, when the devices know it (the simulator does; real ports
+    /// and recordings do not). For taps only: the core never sees it.
+    fn ground_truth(&self) -> Option<Pose2> {
+        None
+    }
+}
+
+/// One step of the loop as a tap sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct StepView<'a> {
+    /// The input the core consumed.
+    pub input: &'a Stamped,
+    /// What it returned.
+    pub outputs: &'a Outputs,
+    /// The core after the step.
+    pub core: &'a Core,
+    /// The true pose, in the simulator.
+    pub ground_truth: Option<Pose2>,
 }
 
 /// Something that watches the loop: a recorder, a status subscriber.
 pub trait Tap {
-    /// `input` was consumed by the core, which returned `outputs`.
-    fn on_step(&mut self, input: &Stamped, outputs: &Outputs, core: &Core);
+    /// The core consumed an input.
+    fn on_step(&mut self, step: &StepView<'_>);
 }
 
 /// Whether the loop goes on after a step.
@@ -53,8 +73,14 @@ pub fn run<D: Devices>(
     let mut summary = RunSummary::default();
     while let Some(input) = devices.next_input()? {
         let outputs = core.step(&input);
+        let view = StepView {
+            input: &input,
+            outputs: &outputs,
+            core,
+            ground_truth: devices.ground_truth(),
+        };
         for tap in taps.iter_mut() {
-            tap.on_step(&input, &outputs, core);
+            tap.on_step(&view);
         }
         devices.apply(&input, &outputs)?;
         summary.inputs += 1;
