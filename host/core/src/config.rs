@@ -7,6 +7,7 @@
 
 mod check;
 mod competition;
+mod field;
 mod io;
 mod localisation;
 mod mega;
@@ -21,6 +22,7 @@ use serde::{Deserialize, Serialize};
 
 pub use check::Issue;
 pub use competition::{CompetitionConfig, Policy};
+pub use field::FieldConfig;
 pub use io::{LidarConfig, LinkConfig, RefereeConfig};
 pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
@@ -59,6 +61,8 @@ pub struct Config {
     pub competition: CompetitionConfig,
     /// The mission's timing and distances.
     pub mission: crate::mission::MissionConfig,
+    /// The floor as measured on the day (the beacons).
+    pub field: FieldConfig,
 }
 
 /// Why a configuration could not be used.
@@ -104,7 +108,39 @@ fn join(issues: &[Issue]) -> String {
         .join("; ")
 }
 
+/// Sections that describe the simulated world, not the robot: a robot's own configuration
+/// (`ratf run`) refuses them, so a simulator key is never silently taken for a setting.
+/// `[motor]` is the robot's identified motor model (the simulator draws its truth around
+/// it), so it is a robot section.
+pub const SIMULATOR_SECTIONS: [&str; 2] = ["sim", "traction"];
+
 impl Config {
+    /// Parse a robot's configuration: as [`Config::from_toml_str`], and any simulator
+    /// section ([`SIMULATOR_SECTIONS`]) is an error naming it.
+    pub fn robot_from_toml_str(text: &str) -> Result<Self, ConfigError> {
+        let table: toml::Table =
+            toml::from_str(text).map_err(|error| ConfigError::Parse { path: None, error })?;
+        let issues: Vec<Issue> = SIMULATOR_SECTIONS
+            .iter()
+            .filter(|section| table.contains_key(**section))
+            .map(|section| Issue {
+                key: (*section).to_owned(),
+                reason: "a simulator section: the robot's configuration does not take it \
+                         (keep it in the file given to `ratf sim`)"
+                    .to_owned(),
+            })
+            .collect();
+        if !issues.is_empty() {
+            return Err(ConfigError::Invalid { path: None, issues });
+        }
+        Self::from_toml_str(text)
+    }
+
+    /// Read a robot's configuration file ([`Config::robot_from_toml_str`]).
+    pub fn load_robot(path: &Path) -> Result<Self, ConfigError> {
+        Self::load_with(path, Self::robot_from_toml_str)
+    }
+
     /// Parse TOML text and validate it.
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
         let config: Self =
@@ -115,11 +151,18 @@ impl Config {
 
     /// Read, parse and validate a TOML file.
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        Self::load_with(path, Self::from_toml_str)
+    }
+
+    fn load_with(
+        path: &Path,
+        parse: impl FnOnce(&str) -> Result<Self, ConfigError>,
+    ) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
             path: path.to_owned(),
             error,
         })?;
-        Self::from_toml_str(&text).map_err(|e| match e {
+        parse(&text).map_err(|e| match e {
             ConfigError::Parse { error, .. } => ConfigError::Parse {
                 path: Some(path.to_owned()),
                 error,
@@ -161,6 +204,7 @@ impl Config {
             .check(&mut Checker::new("competition", &mut issues));
         self.mission
             .check(&mut Checker::new("mission", &mut issues));
+        self.field.check(&mut Checker::new("field", &mut issues));
         issues
     }
 
@@ -200,6 +244,41 @@ mod tests {
         let text = d.to_toml_string().unwrap();
         assert!(text.contains("[robot.imu]") && text.contains("wheel_diameter_m = 0.06"));
         assert_eq!(Config::from_toml_str(&text).unwrap(), d);
+    }
+
+    #[test]
+    fn a_robot_configuration_refuses_simulator_sections() {
+        let text = "[robot]\nwheel_diameter_m = 0.065\n[sim]\nseed = 7\n[traction]\n";
+        match Config::robot_from_toml_str(text) {
+            Err(ConfigError::Invalid { issues, .. }) => {
+                let keys: Vec<&str> = issues.iter().map(|i| i.key.as_str()).collect();
+                assert_eq!(keys, ["sim", "traction"]);
+            }
+            other => panic!("expected Invalid, got {other:?}"),
+        }
+        // The same file is fine for the simulator, and a robot file without them is too.
+        assert!(Config::from_toml_str(text).is_ok());
+        let robot = Config::robot_from_toml_str("[robot]\nwheel_diameter_m = 0.065\n").unwrap();
+        assert_eq!(robot.robot.wheel_diameter_m, 0.065);
+    }
+
+    #[test]
+    fn beacons_measured_on_the_day_reach_the_robots_field() {
+        let c = Config::from_toml_str(
+            "[field]\nbeacons_m = [[0.9, 0.54], [-0.888, 0.538], [-0.888, -0.538], [0.888, -0.538]]\n",
+        )
+        .unwrap();
+        let field = c.field.field();
+        assert_eq!(field.beacons()[0].circle.center.x, 0.9);
+        assert_eq!(field.beacons()[1].circle.center.x, -0.888);
+        assert_eq!(
+            keys_of("[field]\nbeacons_m = [[0.0, 0.0], [0.0, 0.1], [1.0, 1.0], [-1.0, -1.0]]\n"),
+            ["field.beacons_m"]
+        );
+        assert_eq!(
+            keys_of("[robot.imu]\ngyro_range_dps = 300\n"),
+            ["robot.imu.gyro_range_dps"]
+        );
     }
 
     #[test]
@@ -245,8 +324,8 @@ mod tests {
             ["robot.wheel_forward_sign[1]"]
         );
         assert_eq!(
-            keys_of("[robot.imu]\ngyro_lsb_per_deg_s = nan"),
-            ["robot.imu.gyro_lsb_per_deg_s"]
+            keys_of("[robot.imu]\ngyro_range_dps = 0"),
+            ["robot.imu.gyro_range_dps"]
         );
         assert_eq!(
             keys_of("[lidar]\nrange_noise_std_m = -0.1"),

@@ -12,7 +12,6 @@
 //! pose is the estimator's.
 
 use crate::config::Config;
-use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::{BodyTwist, Mecanum};
 use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
@@ -55,7 +54,8 @@ pub enum EstimatorKind {
 impl EstimatorKind {
     /// A fresh estimator of this kind believing the robot is at `pose` at `time_us`.
     pub fn build(self, config: &Config, pose: Pose2, time_us: u64) -> Box<dyn PoseEstimator> {
-        let field = Field::competition();
+        // The robot's beliefs: the beacons where the team measured them.
+        let field = config.field.field();
         match self {
             EstimatorKind::Localiser => Box::new(Localiser::new(
                 &config.localisation,

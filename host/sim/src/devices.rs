@@ -11,7 +11,7 @@
 use std::collections::VecDeque;
 
 use ratf_core::config::Config;
-use ratf_core::drivers::imu::{ImuConfig as ImuDriverConfig, ImuError, Mpu9255};
+use ratf_core::drivers::imu::{ImuError, Mpu9255};
 use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
 use ratf_core::drivers::x4::X4Driver;
 use ratf_core::drivers::x4::scan::ScanConfig;
@@ -35,6 +35,7 @@ pub struct SimDevices {
     mega: MegaLink,
     lidar: X4Driver,
     imu: Mpu9255<SimImuBus>,
+    imu_yaw_rad: f64,
     next_host_tick_us: u64,
     next_imu_us: u64,
     pending: VecDeque<Stamped>,
@@ -46,7 +47,7 @@ impl SimDevices {
     /// Build the world of `scenario` and the device drivers of `config`.
     pub fn new(config: &Config, scenario: &Scenario) -> Result<Self, ImuError> {
         let world = World::new(config, scenario);
-        let imu = Mpu9255::new(world.imu_bus(), ImuDriverConfig::default())?;
+        let imu = Mpu9255::new(world.imu_bus(), config.robot.imu.driver_config())?;
         Ok(Self {
             mega: MegaLink::new(MegaLinkConfig {
                 send_checksums: config.mega.send_checksums,
@@ -59,6 +60,7 @@ impl SimDevices {
                 ..ScanConfig::default()
             }),
             imu,
+            imu_yaw_rad: config.robot.imu.yaw_deg.to_radians(),
             next_host_tick_us: HOST_TICK_PHASE_US,
             next_imu_us: IMU_PERIOD_US,
             pending: VecDeque::new(),
@@ -143,7 +145,10 @@ impl SimDevices {
             }
         });
         if now_us >= self.next_imu_us {
-            let sample = self.imu.read_sample(now_us)?;
+            let sample = self
+                .imu
+                .read_sample(now_us)?
+                .rotated_about_z(self.imu_yaw_rad);
             self.pending
                 .push_back(Stamped::new(time, Input::Imu(sample)));
             self.next_imu_us += IMU_PERIOD_US;

@@ -9,7 +9,6 @@
 
 use std::f64::consts::{FRAC_PI_2, TAU};
 use std::fmt;
-use std::str::FromStr;
 
 use ratf_core::field::geometry::Pose2;
 use ratf_core::kinematics::BodyTwist;
@@ -137,8 +136,8 @@ impl Builder {
     }
 }
 
-/// The built-in scripts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// The built-in scripts (`ratf drive --script`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Named {
     /// A holonomic loop around machine A at 0.3 m/s, heading fixed (facing +y): up 0.71 m,
     /// right 0.59 m, down, left, back to the start in the start area.
@@ -227,22 +226,6 @@ impl fmt::Display for Named {
     }
 }
 
-/// An unknown script name.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("unknown script '{0}': expected square, figure-eight or dash")]
-pub struct UnknownScript(pub String);
-
-impl FromStr for Named {
-    type Err = UnknownScript;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Named::ALL
-            .into_iter()
-            .find(|n| n.name() == s)
-            .ok_or_else(|| UnknownScript(s.to_owned()))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,10 +265,11 @@ mod tests {
     }
 
     #[test]
-    fn names_round_trip() {
+    fn the_command_line_names_are_the_scripts_names() {
+        use clap::ValueEnum;
         for named in Named::ALL {
-            assert_eq!(named.name().parse::<Named>(), Ok(named));
+            assert_eq!(Named::from_str(named.name(), false), Ok(named));
         }
-        assert!("circle".parse::<Named>().is_err());
+        assert!(Named::from_str("circle", false).is_err());
     }
 }

@@ -177,9 +177,9 @@ struct SimArgs {
 
 #[derive(Debug, Args)]
 struct DriveArgs {
-    /// The script: square, figure-eight, dash, or all.
-    #[arg(long, default_value = "all")]
-    script: String,
+    /// The script (every one when omitted).
+    #[arg(long, value_enum)]
+    script: Option<Named>,
     /// Random seed (overrides the configuration's `sim.seed`).
     #[arg(long)]
     seed: Option<u64>,
@@ -195,14 +195,17 @@ struct DriveArgs {
 }
 
 #[derive(Debug, Args)]
-#[group(required = true, multiple = false)]
 struct ConfigArgs {
     /// Print the default configuration (the competition robot) as TOML.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "check", required_unless_present = "check")]
     print_default: bool,
     /// Parse and validate FILE; print every problem with its key, exit non-zero if any.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
+    /// With --check: FILE is a robot's configuration (for `ratf run`), which refuses the
+    /// simulator's sections ([sim], [traction]).
+    #[arg(long, requires = "check")]
+    robot: bool,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -226,7 +229,12 @@ fn main() -> anyhow::Result<()> {
         Command::Replay(args) => replay_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
-                match Config::load(&path) {
+                let loaded = if args.robot {
+                    Config::load_robot(&path)
+                } else {
+                    Config::load(&path)
+                };
+                match loaded {
                     Ok(_) => println!("{}: ok", path.display()),
                     Err(ConfigError::Invalid { issues, .. }) => {
                         eprintln!("{}: {} invalid value(s):", path.display(), issues.len());
@@ -403,11 +411,7 @@ fn drive_command(args: &DriveArgs) -> anyhow::Result<()> {
     if let Some(seed) = args.seed {
         config.sim.seed = seed;
     }
-    let scripts: Vec<Named> = if args.script == "all" {
-        Named::ALL.to_vec()
-    } else {
-        vec![args.script.parse()?]
-    };
+    let scripts: Vec<Named> = args.script.map_or(Named::ALL.to_vec(), |named| vec![named]);
     fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
     println!(

@@ -76,12 +76,16 @@ pub struct ImuConfig {
     /// I2C bus device on the Pi. `/dev/i2c-1`: the Pi's header bus (assumption; the
     /// original used wiringPi's default).
     pub i2c_device: String,
-    /// MPU9255 I2C address. 0x68 = 104: original (§3.3).
+    /// MPU9255 I2C address, 7-bit. 0x68 = 104 (AD0 low): original (§3.3). The driver talks
+    /// to this address; the simulated chip answers at 0x68 only.
     pub i2c_address: u8,
-    /// Gyro scale, LSB per °/s. 131: the ±250 °/s power-on default full scale (§3.3).
-    pub gyro_lsb_per_deg_s: f64,
-    /// Yaw of the IMU's x axis in the robot frame, degrees. 0: assumption (the original's
-    /// static tf is not documented).
+    /// Gyro full scale the driver configures, °/s: 250, 500, 1000 or 2000. 500: a turn on
+    /// the spot peaks near 5 rad/s = 290 °/s at the wheel limit, beyond ±250; ±500 keeps
+    /// 0.015 °/s resolution (65.5 LSB per °/s).
+    pub gyro_range_dps: u16,
+    /// Yaw of the IMU's x axis in the robot frame, degrees: the device turns each sample
+    /// into the robot's axes (x forward, y left, z up) before the core sees it. 0:
+    /// assumption (the original's static tf is not documented).
     pub yaw_deg: f64,
     /// Gyro z noise density, rad/s/√Hz. 1.75e-4 (0.01 °/s/√Hz): MPU-9250 datasheet typical.
     pub gyro_noise_density_rad_s_sqrt_hz: f64,
@@ -92,9 +96,33 @@ impl Default for ImuConfig {
         Self {
             i2c_device: "/dev/i2c-1".to_owned(),
             i2c_address: 0x68,
-            gyro_lsb_per_deg_s: 131.0,
+            gyro_range_dps: 500,
             yaw_deg: 0.0,
             gyro_noise_density_rad_s_sqrt_hz: 1.75e-4,
+        }
+    }
+}
+
+impl ImuConfig {
+    /// The gyro full scale of `gyro_range_dps`, if it is one the chip has.
+    pub fn gyro_range(&self) -> Option<crate::drivers::imu::registers::GyroRange> {
+        use crate::drivers::imu::registers::GyroRange;
+        match self.gyro_range_dps {
+            250 => Some(GyroRange::Dps250),
+            500 => Some(GyroRange::Dps500),
+            1000 => Some(GyroRange::Dps1000),
+            2000 => Some(GyroRange::Dps2000),
+            _ => None,
+        }
+    }
+
+    /// The driver's settings: this address and gyro range, the driver's other defaults.
+    pub fn driver_config(&self) -> crate::drivers::imu::ImuConfig {
+        let defaults = crate::drivers::imu::ImuConfig::default();
+        crate::drivers::imu::ImuConfig {
+            address: self.i2c_address,
+            gyro_range: self.gyro_range().unwrap_or(defaults.gyro_range),
+            ..defaults
         }
     }
 }
@@ -138,7 +166,16 @@ impl RobotConfig {
         c.require("imu.i2c_address", self.imu.i2c_address < 0x80, || {
             format!("must be a 7-bit address (got {})", self.imu.i2c_address)
         });
-        c.positive("imu.gyro_lsb_per_deg_s", self.imu.gyro_lsb_per_deg_s);
+        c.require(
+            "imu.gyro_range_dps",
+            self.imu.gyro_range().is_some(),
+            || {
+                format!(
+                    "must be 250, 500, 1000 or 2000 (got {})",
+                    self.imu.gyro_range_dps
+                )
+            },
+        );
         c.within("imu.yaw_deg", self.imu.yaw_deg, -360.0, 360.0);
         c.non_negative(
             "imu.gyro_noise_density_rad_s_sqrt_hz",

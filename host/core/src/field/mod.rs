@@ -143,6 +143,15 @@ impl Field {
         &self.beacons
     }
 
+    /// This floor with the beacons' centres at `centres_m` (world frame, m, B0..B3): the
+    /// positions a team measured on the day.
+    pub fn with_beacon_centres(mut self, centres_m: [[f64; 2]; 4]) -> Self {
+        for (beacon, [x, y]) in self.beacons.iter_mut().zip(centres_m) {
+            beacon.circle = Circle::new(Vec2::new(x, y), beacon.circle.radius_m);
+        }
+        self
+    }
+
     /// The start area (approximate, competition.md §1.6).
     pub fn start_area(&self) -> Rect {
         self.start_area

@@ -131,6 +131,21 @@ pub struct ImuSample {
     pub saturated: bool,
 }
 
+impl ImuSample {
+    /// This sample in axes turned by `yaw_rad` about z: with `yaw_rad` the yaw of the
+    /// chip's x axis in the robot frame, the result is in the robot's axes (x forward, y
+    /// left, z up). The time, temperature and saturation flag are kept.
+    pub fn rotated_about_z(&self, yaw_rad: f64) -> Self {
+        let (sin, cos) = yaw_rad.sin_cos();
+        let turn = |v: [f64; 3]| [cos * v[0] - sin * v[1], sin * v[0] + cos * v[1], v[2]];
+        Self {
+            gyro_rad_s: turn(self.gyro_rad_s),
+            accel_m_s2: turn(self.accel_m_s2),
+            ..*self
+        }
+    }
+}
+
 /// The MPU9255 driver: see the module documentation.
 #[derive(Debug)]
 pub struct Mpu9255<I> {
@@ -253,4 +268,30 @@ fn read_register(i2c: &mut impl I2c, address: u8, register: u8) -> Result<u8, Im
     i2c.write_read(address, &[register], &mut value)
         .map_err(i2c_error)?;
     Ok(value[0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_chip_turned_a_quarter_left_reads_its_x_as_the_robots_y() {
+        let sample = ImuSample {
+            time_us: 7,
+            gyro_rad_s: [0.1, 0.0, 0.5],
+            accel_m_s2: [1.0, 0.0, 9.81],
+            temperature_c: 30.0,
+            saturated: false,
+        };
+        let robot = sample.rotated_about_z(std::f64::consts::FRAC_PI_2);
+        assert!(robot.accel_m_s2[0].abs() < 1e-12 && (robot.accel_m_s2[1] - 1.0).abs() < 1e-12);
+        assert!((robot.gyro_rad_s[1] - 0.1).abs() < 1e-12);
+        assert_eq!(
+            robot.gyro_rad_s[2], 0.5,
+            "the yaw rate does not depend on the mount yaw"
+        );
+        assert_eq!((robot.time_us, robot.temperature_c), (7, 30.0));
+        // No turn is exactly no change.
+        assert_eq!(sample.rotated_about_z(0.0), sample);
+    }
 }
