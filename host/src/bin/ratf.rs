@@ -203,7 +203,7 @@ struct ConfigArgs {
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
     /// With --check: FILE is a robot's configuration (for `ratf run`), which refuses the
-    /// simulator's sections ([sim], [traction]).
+    /// simulator's sections (`[sim]`, `[traction]`).
     #[arg(long, requires = "check")]
     robot: bool,
 }
