@@ -305,19 +305,19 @@ impl Devices for RoundDevices {
                 event: event.clone(),
             });
         }
+        // The mock server answers only when polled, and it is polled right after each
+        // request: loopback delivers before `send` returns, so the answer is in before the
+        // next input, stamped now.
         if let Some(request) = outputs.referee {
             self.link.send(request)?;
-        }
-        if input.input == Input::HostTick {
-            let now_us = input.time.as_us();
             if !self.silent_server {
-                self.server.poll(now_us).map_err(RoundError::Server)?;
+                self.server
+                    .poll(input.time.as_us())
+                    .map_err(RoundError::Server)?;
             }
-            // Loopback delivers before `send` returns: the answer is in before the next
-            // input, stamped now.
             for datagram in self.link.receive() {
                 self.queued
-                    .push_front(Stamped::new(input.time, Input::Referee { datagram }));
+                    .push_back(Stamped::new(input.time, Input::Referee { datagram }));
             }
         }
         Ok(())
