@@ -145,6 +145,11 @@ impl Estimation {
     pub fn reset(&mut self, pose: Pose2, time_us: u64) {
         self.estimator.reset(pose, time_us);
     }
+
+    /// Hand the estimator the gyro's z bias measured at start-up, rad/s.
+    pub fn set_gyro_bias(&mut self, bias_rad_s: f64, std_rad_s: f64) {
+        self.estimator.set_gyro_bias(bias_rad_s, std_rad_s);
+    }
 }
 
 /// The core: see the module documentation.
@@ -243,6 +248,11 @@ impl Robot {
     /// Restart the pose estimate at `pose` (the operator placed the robot).
     pub fn reset_pose(&mut self, pose: Pose2, time_us: u64) {
         self.estimation.reset(pose, time_us);
+    }
+
+    /// Hand the estimator the gyro's z bias measured at start-up, rad/s.
+    pub fn set_gyro_bias(&mut self, bias_rad_s: f64, std_rad_s: f64) {
+        self.estimation.set_gyro_bias(bias_rad_s, std_rad_s);
     }
 
     /// The last odometry step, if any.

@@ -438,6 +438,10 @@ impl PoseEstimator for Localiser {
         self.health
     }
 
+    fn set_gyro_bias(&mut self, bias_rad_s: f64, std_rad_s: f64) {
+        Localiser::set_gyro_bias(self, bias_rad_s, std_rad_s);
+    }
+
     fn reset(&mut self, pose: Pose2, time_us: u64) {
         // The gyro bias is a property of the chip, not of where the robot stands: kept.
         let latest = self.history.latest().state;

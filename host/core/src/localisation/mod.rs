@@ -102,6 +102,9 @@ pub trait PoseEstimator {
     fn health(&self) -> Health;
     /// Restart at `pose` at `time_us` with the reset uncertainty.
     fn reset(&mut self, pose: Pose2, time_us: u64);
+    /// The gyro's z bias measured while the robot stood still at start-up, with its
+    /// standard deviation, rad/s. Estimators that do not use the gyro ignore it.
+    fn set_gyro_bias(&mut self, _bias_rad_s: f64, _std_rad_s: f64) {}
 }
 
 /// What the last scan did.

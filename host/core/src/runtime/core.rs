@@ -10,6 +10,7 @@ use crate::planning::tasks::TaskError;
 use crate::robot::{EstimatorKind, InputCounts, Robot};
 
 use super::brain::{Brain, Phase};
+use super::bringup::{BiasOutcome, GyroBiasStartup};
 use super::event::Event;
 use super::input::{Input, OperatorCommand, Stamped, Timestamp};
 use super::output::{LidarCommand, Outputs, WheelCommand};
@@ -44,6 +45,7 @@ pub struct Core {
     brain: Brain,
     stopped: bool,
     lidar_started: bool,
+    gyro_bias: GyroBiasStartup,
     placed: u32,
     time: Timestamp,
 }
@@ -66,6 +68,7 @@ impl Core {
             brain: Brain::new(config)?,
             stopped: false,
             lidar_started: false,
+            gyro_bias: GyroBiasStartup::default(),
             placed: 0,
             time: Timestamp::ZERO,
         })
@@ -95,12 +98,41 @@ impl Core {
                 });
             }
         }
+        self.bring_up(&stamped.input, &mut outputs);
         self.placed += outputs
             .events
             .iter()
             .filter(|e| matches!(e, Event::Placed { .. }))
             .count() as u32;
         outputs
+    }
+
+    /// The start-up gyro bias: measured on the IMU samples while the robot waits for the
+    /// part list, concluded at the latest when the round starts.
+    fn bring_up(&mut self, input: &Input, outputs: &mut Outputs) {
+        if self.gyro_bias.is_done() {
+            return;
+        }
+        let outcome = if self.brain.phase() != Phase::WaitingForPartList || self.stopped {
+            self.gyro_bias.finish()
+        } else if let Input::Imu(sample) = input {
+            self.gyro_bias.on_sample(sample)
+        } else {
+            None
+        };
+        match outcome {
+            Some(BiasOutcome::Measured {
+                bias_rad_s,
+                std_rad_s,
+            }) => {
+                self.robot.set_gyro_bias(bias_rad_s, std_rad_s);
+                outputs.events.push(Event::GyroBiasMeasured { bias_rad_s });
+            }
+            Some(BiasOutcome::Refused(reason)) => outputs.events.push(Event::GyroBiasRefused {
+                reason: reason.to_string(),
+            }),
+            None => {}
+        }
     }
 
     fn on_tick(&mut self, now_us: u64, outputs: &mut Outputs) {

@@ -79,6 +79,18 @@ pub enum Event {
         /// The pose, world frame.
         pose: Pose2,
     },
+    /// The gyro's bias, measured while the robot stood still before the round, went to the
+    /// pose estimator.
+    GyroBiasMeasured {
+        /// The z bias, rad/s.
+        bias_rad_s: f64,
+    },
+    /// No start-up gyro bias (the robot moved, or too few samples): the estimator learns it
+    /// on its own.
+    GyroBiasRefused {
+        /// Why.
+        reason: String,
+    },
     /// A device failed; the robot stopped.
     DeviceFault {
         /// Which device.
@@ -204,6 +216,13 @@ impl Event {
                 pose.y,
                 pose.yaw_rad.to_degrees()
             ),
+            Self::GyroBiasMeasured { bias_rad_s } => format!(
+                "gyro bias {:.3} °/s measured while still",
+                bias_rad_s.to_degrees()
+            ),
+            Self::GyroBiasRefused { reason } => {
+                format!("no start-up gyro bias ({reason}); the localiser learns it")
+            }
             Self::DeviceFault { device, message } => {
                 format!("{device} failed: {message}; stopped")
             }

@@ -14,6 +14,7 @@
 //! replay` differ only in the devices they pass (architecture.md, "The runtime").
 
 mod brain;
+mod bringup;
 mod core;
 mod event;
 mod input;
@@ -21,6 +22,7 @@ mod output;
 mod run;
 
 pub use self::brain::{Brain, Phase};
+pub use self::bringup::{BiasOutcome, GYRO_BIAS_SAMPLES, GYRO_SETTLE_US, GyroBiasStartup};
 pub use self::core::{Core, Status};
 pub use self::event::{Event, slot_name};
 pub use self::input::{DeviceKind, Input, OperatorCommand, Stamped, Timestamp};
