@@ -123,16 +123,19 @@ impl Brain {
     }
 
     /// One host tick at `now_us` with the pose estimate and the switch; `events` gets what
-    /// happened.
+    /// happened. Without `may_drive` (the Mega has not been heard yet) the mission waits,
+    /// still and with the magnet off; the server is still read.
     pub fn tick(
         &mut self,
         now_us: u64,
         pose: Pose2,
         switch_pressed: bool,
+        may_drive: bool,
         events: &mut Vec<Event>,
     ) -> BrainTick {
         let mut out = BrainTick::default();
         match self.mission.as_mut() {
+            Some(_) if !may_drive => {}
             None => {
                 if now_us >= self.next_poll_us && self.tracker.ready(now_us) {
                     self.next_poll_us = now_us + self.poll_period_us;

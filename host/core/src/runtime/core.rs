@@ -140,10 +140,15 @@ impl Core {
             self.lidar_started = true;
             outputs.lidar = Some(LidarCommand::StartScan);
         }
+        // Bring-up: nothing drives before the Mega has spoken (its `r` or a telemetry
+        // batch), so odometry and the switch are real before the first move.
+        let counts = self.robot.input_counts();
+        let mega_heard = counts.mega_resets + counts.wheel_batches > 0;
         let tick = self.brain.tick(
             now_us,
             self.robot.pose(),
             self.robot.switch_pressed(),
+            mega_heard,
             &mut outputs.events,
         );
         outputs.referee = tick.request;
@@ -216,6 +221,99 @@ impl Core {
             placed: self.placed,
             switch_pressed: self.robot.switch_pressed(),
             inputs: self.robot.input_counts(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::{Field, PartColor};
+    use crate::referee::protocol::Request;
+
+    const BLUE: Option<PartColor> = Some(PartColor::Blue);
+
+    fn at(ms: u64, input: Input) -> Stamped {
+        Stamped::new(Timestamp::from_us(ms * 1_000), input)
+    }
+
+    fn core() -> Core {
+        Core::new(&Config::default(), Field::competition().start_pose()).unwrap()
+    }
+
+    fn moving(outputs: &Outputs) -> bool {
+        outputs
+            .wheels
+            .is_some_and(|w| w.wheel_speeds_rad_s.iter().any(|s| *s != 0.0))
+    }
+
+    #[test]
+    fn the_first_tick_starts_the_lidar_and_asks_for_the_part_list() {
+        let mut core = core();
+        let first = core.step(&at(7, Input::HostTick));
+        assert_eq!(first.lidar, Some(LidarCommand::StartScan));
+        assert_eq!(first.referee, Some(Request::IncomingWarehouse));
+        assert!(first.wheels.is_some() && !moving(&first));
+        let second = core.step(&at(27, Input::HostTick));
+        assert_eq!(second.lidar, None, "the start command goes once");
+    }
+
+    #[test]
+    fn nothing_drives_before_the_mega_has_spoken_and_an_operator_stop_holds() {
+        let mut core = core();
+        let started = core.step(&at(
+            10,
+            Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
+        ));
+        assert!(
+            matches!(
+                started.events.as_slice(),
+                [
+                    Event::PartList { forced: true, .. },
+                    Event::GyroBiasRefused { .. }
+                ]
+            ),
+            "{:?}",
+            started.events
+        );
+        for k in 0..20 {
+            let out = core.step(&at(27 + 20 * k, Input::HostTick));
+            assert!(!moving(&out), "drove without the Mega at tick {k}");
+        }
+        core.step(&at(430, Input::MegaReset));
+        let drives = (0..20).any(|k| moving(&core.step(&at(447 + 20 * k, Input::HostTick))));
+        assert!(drives, "the mission never moved once the Mega was heard");
+        let stop = core.step(&at(900, Input::Operator(OperatorCommand::Stop)));
+        assert_eq!(stop.wheels, Some(WheelCommand::STOP));
+        assert_eq!(stop.events, [Event::Stopped]);
+        for k in 0..10 {
+            let out = core.step(&at(907 + 20 * k, Input::HostTick));
+            assert!(!moving(&out) && !out.wheels.unwrap().solenoid_on);
+        }
+        assert!(core.status().stopped);
+        core.step(&at(1200, Input::Operator(OperatorCommand::Resume)));
+        let drives = (0..10).any(|k| moving(&core.step(&at(1207 + 20 * k, Input::HostTick))));
+        assert!(drives, "resume lets the mission drive again");
+    }
+
+    #[test]
+    fn a_device_fault_stops_the_robot() {
+        let mut core = core();
+        core.step(&at(5, Input::MegaReset));
+        core.step(&at(
+            10,
+            Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
+        ));
+        let fault = core.step(&at(
+            30,
+            Input::DeviceFault {
+                device: super::super::DeviceKind::Lidar,
+                message: "port gone".into(),
+            },
+        ));
+        assert_eq!(fault.wheels, Some(WheelCommand::STOP));
+        for k in 0..10 {
+            assert!(!moving(&core.step(&at(47 + 20 * k, Input::HostTick))));
         }
     }
 }
