@@ -7,6 +7,8 @@
 //! (offset from the Mega's tick by [`HOST_TICK_PHASE_US`], as two free-running clocks would
 //! be), a [`Input::HostTick`]. The inputs of one step are handed out in that order; the
 //! world steps again only when they are all consumed ([`SimDevices::step_complete`]).
+//!
+//! Bring-up is the robot's: the X4 sends nothing until the core's start command.
 
 use std::collections::VecDeque;
 
@@ -16,7 +18,7 @@ use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
 use ratf_core::drivers::x4::X4Driver;
 use ratf_core::drivers::x4::scan::ScanConfig;
 use ratf_core::rng::SimRng;
-use ratf_core::runtime::{Devices, Input, Outputs, Stamped, Timestamp};
+use ratf_core::runtime::{Devices, Input, LidarCommand, Outputs, Stamped, Timestamp};
 
 use crate::world::{Scenario, SimImuBus, World};
 
@@ -41,6 +43,7 @@ pub struct SimDevices {
     pending: VecDeque<Stamped>,
     scan_drop: Option<(f64, SimRng)>,
     wheel_batches: usize,
+    lidar_streaming: bool,
 }
 
 impl SimDevices {
@@ -66,6 +69,7 @@ impl SimDevices {
             pending: VecDeque::new(),
             scan_drop: None,
             wheel_batches: 0,
+            lidar_streaming: false,
             world,
         })
     }
@@ -134,7 +138,11 @@ impl SimDevices {
             };
             pending.push_back(Stamped::new(time, input));
         });
-        let bytes = self.world.receive_from_lidar();
+        // The X4's motor spins from power-up, but it sends nothing until told to scan.
+        let mut bytes = self.world.receive_from_lidar();
+        if !self.lidar_streaming {
+            bytes.clear();
+        }
         let scan_drop = &mut self.scan_drop;
         self.lidar.feed(&bytes, now_us, |scan| {
             let dropped = scan_drop
@@ -161,8 +169,12 @@ impl SimDevices {
     }
 
     /// Carry the core's outputs into the world: the wheel references and the magnet to the
-    /// Mega as a `G H I J L` batch.
+    /// Mega as a `G H I J L` batch, and the lidar's start command (its data flows from the
+    /// next step on).
     pub fn apply_outputs(&mut self, outputs: &Outputs) {
+        if outputs.lidar == Some(LidarCommand::StartScan) {
+            self.lidar_streaming = true;
+        }
         // The core's references are finite by construction (limited inverse kinematics of a
         // finite twist); a non-finite one is a bug upstream and is not sent.
         if let Some(wheels) = outputs.wheels

@@ -11,7 +11,7 @@ use ratf_core::config::Config;
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::robot::{Output, Robot};
-use ratf_core::runtime::{Input, Outputs, Stamped, WheelCommand};
+use ratf_core::runtime::{Input, LidarCommand, Outputs, Stamped, WheelCommand};
 
 use crate::devices::SimDevices;
 use crate::world::{Scenario, World};
@@ -107,6 +107,11 @@ impl SimulatedRobot {
                     solenoid_on: output.solenoid_on,
                     twist_scale: output.twist_scale,
                 }),
+                // Scripts bring the lidar up at their first tick, as the core does.
+                lidar: self
+                    .last_output
+                    .is_none()
+                    .then_some(LidarCommand::StartScan),
                 ..Outputs::default()
             });
             self.last_output = Some(output);
