@@ -90,9 +90,14 @@ pub struct MissionConfig {
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
     /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
-    /// it follows `[competition] policy` (ours: on).
+    /// it follows `[competition] policy` (on for both).
     #[serde(skip)]
     pub exit_on_route_after_pick: bool,
+    /// After a drop, back out and check that the switch opened (the part stayed in its
+    /// slot) before reporting the placement. Not a key: it follows `[competition] policy`
+    /// (ours: on; the original never checked, original-system.md §6.4).
+    #[serde(skip)]
+    pub confirm_release: bool,
 }
 
 impl Default for MissionConfig {
@@ -106,6 +111,23 @@ impl Default for MissionConfig {
             back_out_accel_m_s2: 2.0,
             max_attempts: 2,
             exit_on_route_after_pick: false,
+            confirm_release: true,
+        }
+    }
+}
+
+impl MissionConfig {
+    /// The original 5dpo manager's sequence (original-system.md §6.4), on top of `self`'s
+    /// timeouts: when the switch closes on a part the magnet goes on and the robot drives
+    /// straight on to the drop (no dwell, no reverse); at the drop the magnet goes off and
+    /// it drives on to the next part (no dwell, no check that the part let go).
+    pub fn original(self) -> Self {
+        Self {
+            grip_settle_s: 0.0,
+            release_settle_s: 0.0,
+            exit_on_route_after_pick: true,
+            confirm_release: false,
+            ..self
         }
     }
 }
@@ -513,6 +535,14 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 let (twist, arrival) = self.navigator.update(now_us, pose, false);
                 let timed_out = Self::elapsed_s(now_us, since_us) > self.config.drive_timeout_s;
                 match arrival {
+                    Arrival::Arrived | Arrival::Docked if !self.config.confirm_release => {
+                        // The original: magnet off and on to the next part in this tick.
+                        self.solenoid_on = false;
+                        events.push(MissionEvent::Placed { slot: action.drop });
+                        self.actions.action_done(action, true, now_us);
+                        self.state = State::Idle;
+                        self.advance(now_us, pose, switch, events)
+                    }
                     Arrival::Arrived | Arrival::Docked => {
                         self.solenoid_on = false;
                         self.state = State::Releasing {
@@ -687,6 +717,58 @@ mod tests {
         assert_eq!(events[2], MissionEvent::Placed { slot: A.drop });
         assert!(!reversed_while_carrying);
         assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
+    }
+
+    #[test]
+    fn the_original_sequence_never_dwells_nor_reverses() {
+        const B: Action = Action {
+            pick: WaypointId(51),
+            drop: WaypointId(63),
+        };
+        let mut m = mission(vec![A, B]);
+        m.config = MissionConfig::default().original();
+        let mut visited_dwell_or_reverse = false;
+        let mut ticks_with_magnet_at_drop = 0;
+        let events = run(
+            &mut m,
+            |state, magnet| {
+                visited_dwell_or_reverse |=
+                    matches!(state, State::BackingOut { .. } | State::Releasing { .. });
+                if matches!(state, State::ToDrop { .. }) && magnet {
+                    ticks_with_magnet_at_drop += 1;
+                }
+                matches!(state, State::ToPick { .. } | State::Gripping { .. }) || magnet
+            },
+            200,
+        );
+        let placed_then_next = events.windows(2).any(|w| {
+            w == [
+                MissionEvent::Placed { slot: A.drop },
+                MissionEvent::ActionStarted {
+                    action: B,
+                    attempt: 1,
+                },
+            ]
+        });
+        assert!(
+            placed_then_next,
+            "the next action starts in the same tick: {events:?}"
+        );
+        assert!(!visited_dwell_or_reverse, "{events:?}");
+        assert!(ticks_with_magnet_at_drop > 0);
+        assert_eq!(m.actions().outcomes, [(A, true), (B, true)]);
+        // With ours, the same actions dwell and back out after the drop to check the release.
+        let mut ours = mission(vec![A, B]);
+        let mut backed_out = false;
+        run(
+            &mut ours,
+            |state, magnet| {
+                backed_out |= matches!(state, State::BackingOut { .. });
+                matches!(state, State::ToPick { .. } | State::Gripping { .. }) || magnet
+            },
+            400,
+        );
+        assert!(backed_out);
     }
 
     #[test]

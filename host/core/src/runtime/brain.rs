@@ -87,9 +87,13 @@ impl Brain {
             Rules::for_round(competition.round),
         )?;
         Ok(Self {
-            mission_config: MissionConfig {
-                exit_on_route_after_pick: competition.policy == Policy::Ours,
-                ..config.mission
+            mission_config: match competition.policy {
+                Policy::Ours => MissionConfig {
+                    exit_on_route_after_pick: true,
+                    confirm_release: true,
+                    ..config.mission
+                },
+                Policy::Original => config.mission.original(),
             },
             config: config.clone(),
             model,
