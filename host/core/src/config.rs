@@ -29,7 +29,7 @@ pub use mega::MegaConfig;
 pub use motor::{MotorConfig, TractionConfig};
 pub use navigation::NavigationConfig;
 pub use robot::{ImuConfig, RobotConfig};
-pub use sim::{ClutterConfig, SimConfig};
+pub use sim::{ClutterConfig, SimConfig, WorldProfile};
 
 use check::Checker;
 

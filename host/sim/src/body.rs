@@ -69,6 +69,23 @@ pub struct Body {
     pub wheel_angles_rad: [f64; 4],
 }
 
+/// How the floor answers the wheels, beyond the kinematics' nominal geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ground {
+    /// Each wheel's radius over the kinematics' radius (motor index order).
+    pub wheel_radius_spread: [f64; 4],
+    /// Lateral (strafe) travel over the kinematics' (the mecanum rollers' slip).
+    pub lateral_factor: f64,
+}
+
+impl Ground {
+    /// Wheels exactly as the kinematics says.
+    pub const NOMINAL: Self = Self {
+        wheel_radius_spread: [1.0; 4],
+        lateral_factor: 1.0,
+    };
+}
+
 impl Body {
     /// A body at rest at `pose`.
     pub fn at_rest(pose: Pose2) -> Self {
@@ -88,15 +105,18 @@ impl Body {
         wheel_speeds_rad_s: [f64; 4],
         mecanum: &Mecanum,
         limits: &TractionLimits,
+        ground: &Ground,
         grip: f64,
         dt_s: f64,
     ) -> StepReport {
         for (angle, speed) in self.wheel_angles_rad.iter_mut().zip(wheel_speeds_rad_s) {
             *angle += speed * dt_s;
         }
-        let wanted = mecanum
-            .forward(wheel_speeds_rad_s)
-            .scaled(grip.clamp(0.0, 1.0));
+        // The ground moves by each wheel's own radius; the rollers let the strafe fall short.
+        let rim_speeds =
+            std::array::from_fn(|k| wheel_speeds_rad_s[k] * ground.wheel_radius_spread[k]);
+        let mut wanted = mecanum.forward(rim_speeds).scaled(grip.clamp(0.0, 1.0));
+        wanted.vy_m_s *= ground.lateral_factor;
         let v = self.twist;
         // Acceleration in an inertial frame, written in robot-frame coordinates: the change
         // of the robot-frame velocity plus the centripetal term ω × v.
@@ -167,6 +187,7 @@ mod tests {
                 mecanum.inverse(target.scaled(ramp)),
                 &mecanum,
                 &limits,
+                &Ground::NOMINAL,
                 1.0,
                 dt,
             );
@@ -182,13 +203,13 @@ mod tests {
         let mut body = Body::at_rest(Pose2::new(0.0, 0.0, 0.0));
         let wheels = mecanum.inverse(BodyTwist::new(0.6, 0.0, 0.0));
         let dt = 0.0005;
-        let report = body.step(wheels, &mecanum, &limits, 1.0, dt);
+        let report = body.step(wheels, &mecanum, &limits, &Ground::NOMINAL, 1.0, dt);
         assert!(report.slipped);
         assert!((body.twist.vx_m_s - limits.linear_m_s2 * dt).abs() < 1e-12);
         // After enough time the body has caught up with the wheels.
         let mut t = dt;
         while t < 0.6 / limits.linear_m_s2 + 0.01 {
-            body.step(wheels, &mecanum, &limits, 1.0, dt);
+            body.step(wheels, &mecanum, &limits, &Ground::NOMINAL, 1.0, dt);
             t += dt;
         }
         assert!((body.twist.vx_m_s - 0.6).abs() < 1e-9);
@@ -198,6 +219,50 @@ mod tests {
             rolled_m > body.pose.x + 0.01,
             "{rolled_m} vs {}",
             body.pose.x
+        );
+    }
+
+    #[test]
+    fn a_larger_wheel_carries_further_and_the_rollers_shorten_a_strafe() {
+        let (mecanum, limits) = setup();
+        let drive = |twist: BodyTwist, ground: &Ground| {
+            let mut body = Body::at_rest(Pose2::new(0.0, 0.0, 0.0));
+            let dt = 0.001;
+            for i in 0..2000 {
+                let ramp = (i as f64 * dt / 0.5).min(1.0);
+                body.step(
+                    mecanum.inverse(twist.scaled(ramp)),
+                    &mecanum,
+                    &limits,
+                    ground,
+                    1.0,
+                    dt,
+                );
+            }
+            (body.pose, body.wheel_angles_rad)
+        };
+        let forward = BodyTwist::new(0.2, 0.0, 0.0);
+        let (nominal, nominal_angles) = drive(forward, &Ground::NOMINAL);
+        let bigger = Ground {
+            wheel_radius_spread: [1.01; 4],
+            lateral_factor: 1.0,
+        };
+        let (further, angles) = drive(forward, &bigger);
+        assert!(
+            (further.x / nominal.x - 1.01).abs() < 1e-9,
+            "{further:?} {nominal:?}"
+        );
+        assert_eq!(angles, nominal_angles, "the encoders count the same turns");
+        let sideways = BodyTwist::new(0.0, 0.2, 0.0);
+        let (strafe, _) = drive(sideways, &Ground::NOMINAL);
+        let rollers = Ground {
+            wheel_radius_spread: [1.0; 4],
+            lateral_factor: 0.93,
+        };
+        let (short, _) = drive(sideways, &rollers);
+        assert!(
+            (short.y / strafe.y - 0.93).abs() < 1e-9,
+            "{short:?} {strafe:?}"
         );
     }
 
@@ -215,6 +280,7 @@ mod tests {
                 wheels,
                 &mecanum,
                 &limits,
+                &Ground::NOMINAL,
                 1.0,
                 std::f64::consts::TAU / steps as f64,
             );

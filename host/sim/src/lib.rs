@@ -15,4 +15,5 @@ pub mod parts;
 pub mod referee;
 pub mod serial;
 pub mod testkit;
+pub mod truth;
 pub mod world;

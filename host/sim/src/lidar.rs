@@ -154,6 +154,12 @@ pub struct SimLidar {
     rng: SimRng,
     /// When `false` every sample reads "no return" (a fault-injection switch).
     pub enabled: bool,
+    /// Range calibration error: reading = true range × scale + offset.
+    range_scale: f64,
+    /// See `range_scale`, m.
+    range_offset_m: f64,
+    /// Range noise σ growth per metre of range (added to `range_noise_std_m`).
+    noise_per_m: f64,
 }
 
 impl SimLidar {
@@ -176,7 +182,19 @@ impl SimLidar {
             packet_first_index: 0,
             rng,
             enabled: true,
+            range_scale: 1.0,
+            range_offset_m: 0.0,
+            noise_per_m: 0.0,
         }
+    }
+
+    /// This lidar with a range calibration error (reading = true × `scale` + `offset_m`)
+    /// and noise whose σ grows by `noise_per_m` per metre of range.
+    pub fn with_range_errors(mut self, scale: f64, offset_m: f64, noise_per_m: f64) -> Self {
+        self.range_scale = scale;
+        self.range_offset_m = offset_m;
+        self.noise_per_m = noise_per_m;
+        self
     }
 
     /// Time between two samples, ns.
@@ -257,7 +275,8 @@ impl SimLidar {
         };
         let hit = origin + beam * along_beam_m;
         let true_m = hit.distance(lidar.position());
-        let noisy_m = true_m + self.rng.normal(self.config.range_noise_std_m);
+        let sigma_m = self.config.range_noise_std_m + self.noise_per_m * true_m;
+        let noisy_m = true_m * self.range_scale + self.range_offset_m + self.rng.normal(sigma_m);
         if noisy_m < self.config.min_range_m || noisy_m > self.config.max_range_m {
             0.0
         } else {
@@ -310,6 +329,15 @@ mod tests {
         robot: Pose2,
         noise_m: f64,
     ) -> (Vec<ratf_core::drivers::x4::scan::Scan>, SimLidar) {
+        scan_once_with(robot, noise_m, (1.0, 0.0))
+    }
+
+    /// One scan with a range calibration error (scale, offset m).
+    fn scan_once_with(
+        robot: Pose2,
+        noise_m: f64,
+        (scale, offset_m): (f64, f64),
+    ) -> (Vec<ratf_core::drivers::x4::scan::Scan>, SimLidar) {
         let field = Field::competition();
         let robot_config = RobotConfig::default();
         let config = LidarConfig {
@@ -317,7 +345,8 @@ mod tests {
             ..LidarConfig::default()
         };
         let scene = LidarScene::new(&field, &[], robot_config.lidar_height_m);
-        let mut lidar = SimLidar::new(&config, &robot_config, SimRng::new(1));
+        let mut lidar = SimLidar::new(&config, &robot_config, SimRng::new(1))
+            .with_range_errors(scale, offset_m, 0.0);
         let mut line = SerialLine::new(128_000);
         let mut driver = X4Driver::new(ScanConfig::default());
         let mut scans = Vec::new();
@@ -399,6 +428,20 @@ mod tests {
                 nearest.range_m,
                 expected_range
             );
+        }
+    }
+
+    #[test]
+    fn a_range_scale_error_reads_every_range_long_by_that_scale() {
+        let robot = Pose2::new(-0.3, 0.1, 0.4);
+        let (exact, _) = scan_once_with(robot, 0.0, (1.0, 0.0));
+        let (long, _) = scan_once_with(robot, 0.0, (1.01, 0.005));
+        let (exact, long) = (&exact[1], &long[1]);
+        assert_eq!(exact.points.len(), long.points.len());
+        for (e, l) in exact.points.iter().zip(&long.points) {
+            // Millimetre quantisation of the X4's distances: within 1 mm of the model.
+            let want = e.range_m * 1.01 + 0.005;
+            assert!((l.range_m - want).abs() < 1.5e-3, "{} vs {want}", l.range_m);
         }
     }
 

@@ -24,13 +24,14 @@ use std::rc::Rc;
 
 use ratf_protocol::mcu::{Actuation, Mcu, TickInputs};
 
-use crate::body::{Body, TractionLimits};
+use crate::body::{Body, Ground, TractionLimits};
 use crate::imu::{SimErrors, SimMotion, SimMpu9255};
 use crate::lidar::{LidarScene, SimLidar, Solid};
 use crate::motor::Motor;
 use crate::parts::{Gripper, PartEvent, Shop};
 use crate::serial::SerialLine;
-use ratf_core::config::Config;
+use crate::truth::WorldTruth;
+use ratf_core::config::{Config, MotorConfig};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::PartColor;
@@ -129,6 +130,7 @@ pub struct WorldStats {
 /// The simulated world: see the module documentation.
 #[derive(Debug)]
 pub struct World {
+    /// The world's own constants (the truth applied to the robot's configuration).
     config: Config,
     field: Field,
     now_ns: u64,
@@ -155,12 +157,16 @@ pub struct World {
     tick_poses: Vec<Pose2>,
     grip: f64,
     stats: WorldStats,
+    truth: WorldTruth,
 }
 
 impl World {
     /// A world at time 0, the Mega just booted (its reset frame already on the line).
     pub fn new(config: &Config, scenario: &Scenario) -> Self {
-        let field = Field::competition();
+        // The robot's beliefs are `config`; the world is built from its own truth.
+        let truth = WorldTruth::draw(config, scenario.gyro_bias_rad_s);
+        let world = truth.true_config(config);
+        let field = truth.true_field(config);
         let rng = SimRng::new(config.sim.seed);
         let mut mcu = Mcu::new(config.mega.to_mcu_config(
             config.robot.ticks_per_wheel_rev,
@@ -171,7 +177,7 @@ impl World {
         let mut imu = SimMpu9255::new(rng.fork("imu").next_u64());
         let imu_rate_hz = 200.0;
         imu.set_errors(SimErrors {
-            gyro_bias_rad_s: [0.0, 0.0, scenario.gyro_bias_rad_s],
+            gyro_bias_rad_s: [0.0, 0.0, truth.gyro_bias_rad_s],
             gyro_noise_std_rad_s: config.robot.imu.gyro_noise_density_rad_s_sqrt_hz
                 * (imu_rate_hz / 2.0f64).sqrt(),
             accel_noise_std_m_s2: 0.02,
@@ -180,9 +186,14 @@ impl World {
         Self {
             step_ns: u64::from(config.sim.time_step_us) * 1000,
             body: Body::at_rest(scenario.start_pose),
-            motors: std::array::from_fn(|_| Motor::new(&config.motor)),
-            mecanum: Mecanum::new(&config.robot),
-            limits: TractionLimits::new(&config.traction, &config.robot),
+            motors: std::array::from_fn(|k| {
+                Motor::new(&MotorConfig {
+                    gain_rad_s_per_v: world.motor.gain_rad_s_per_v * truth.motor_gain_scale[k],
+                    ..world.motor.clone()
+                })
+            }),
+            mecanum: Mecanum::new(&world.robot),
+            limits: TractionLimits::new(&world.traction, &world.robot),
             mcu,
             actuation: Actuation::default(),
             next_tick_ns: u64::from(config.mega.control_period_us) * 1000,
@@ -190,8 +201,12 @@ impl World {
             to_mega: SerialLine::new(config.link.mega_baud),
             from_mega,
             from_lidar: SerialLine::new(config.link.lidar_baud),
-            lidar: SimLidar::new(&config.lidar, &config.robot, rng.fork("lidar")),
-            scene: LidarScene::new(&field, &scenario.clutter, config.robot.lidar_height_m),
+            lidar: SimLidar::new(&world.lidar, &world.robot, rng.fork("lidar")).with_range_errors(
+                truth.lidar_range_scale,
+                truth.lidar_range_offset_m,
+                truth.lidar_noise_per_m,
+            ),
+            scene: LidarScene::new(&field, &scenario.clutter, world.robot.lidar_height_m),
             imu: Rc::new(RefCell::new(imu)),
             shop: Shop::new(
                 &field,
@@ -213,8 +228,14 @@ impl World {
             stats: WorldStats::default(),
             now_ns: 0,
             field,
-            config: config.clone(),
+            config: world,
+            truth,
         }
+    }
+
+    /// The world's truth (what the robot's configuration gets wrong).
+    pub fn truth(&self) -> &WorldTruth {
+        &self.truth
     }
 
     /// Simulated time, ns.
@@ -332,9 +353,18 @@ impl World {
             motor.step(f64::from(pwm) * volts_per_pwm, dt_s);
         }
         let wheel_speeds = self.motors.each_ref().map(|m| m.speed_rad_s());
-        let slip = self
-            .body
-            .step(wheel_speeds, &self.mecanum, &self.limits, self.grip, dt_s);
+        let ground = Ground {
+            wheel_radius_spread: self.truth.wheel_radius_spread(),
+            lateral_factor: self.truth.lateral_factor,
+        };
+        let slip = self.body.step(
+            wheel_speeds,
+            &self.mecanum,
+            &self.limits,
+            &ground,
+            self.grip,
+            dt_s,
+        );
         if slip.slipped || self.grip < 1.0 {
             self.stats.slip_steps += 1;
         }
@@ -349,7 +379,11 @@ impl World {
             &mut self.from_lidar,
         );
         self.imu.borrow_mut().set_motion(SimMotion {
-            rate_rad_s: [0.0, 0.0, self.body.twist.omega_rad_s],
+            rate_rad_s: [
+                0.0,
+                0.0,
+                self.body.twist.omega_rad_s * self.truth.gyro_scale,
+            ],
             ..SimMotion::default()
         });
 

@@ -25,7 +25,7 @@ use serde::Serialize;
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
-use ratf_core::config::{Config, Policy};
+use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
@@ -36,6 +36,7 @@ use ratf_core::runtime::{
 use ratf_sim::devices::SimDevices;
 use ratf_sim::parts::{PartEvent, PartPlace};
 use ratf_sim::referee::{MockError, MockReferee, MockSettings, ServerSlot, round_parts};
+use ratf_sim::truth::WorldTruth;
 use ratf_sim::world::{Collision, Scenario};
 
 /// When the operator starts the mock server, s after power-up.
@@ -93,6 +94,11 @@ pub struct RoundReport {
     pub seed: u64,
     /// Policy.
     pub policy: Policy,
+    /// How the world departed from the robot's beliefs.
+    pub world: WorldProfile,
+    /// The world's drawn truth.
+    #[serde(skip)]
+    pub truth: WorldTruth,
     /// Points scored.
     pub points: u32,
     /// Parts in the outgoing warehouse at the end.
@@ -463,6 +469,8 @@ pub fn run_with_taps(
         round,
         seed,
         policy,
+        world: world.truth().profile,
+        truth: world.truth().clone(),
         points: devices.points,
         outgoing,
         time_s: started_s.map_or(0.0, |s| (devices.last_point_us as f64 * 1e-6 - s).max(0.0)),
@@ -660,6 +668,26 @@ mod tests {
                 assert!(report.time_s > 0.0);
             }
         }
+    }
+
+    #[test]
+    fn the_realistic_world_is_not_the_robots_belief() {
+        let ideal = round(1, Policy::Ours);
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Realistic;
+        let realistic = run_round(&config, &RoundOptions::new(1, 1, Policy::Ours), |_| {}).unwrap();
+        assert_eq!(
+            (ideal.world, realistic.world),
+            (WorldProfile::Ideal, WorldProfile::Realistic)
+        );
+        assert_ne!(realistic.truth, ideal.truth);
+        // Calibration errors the robot does not know of show in its localisation.
+        assert!(
+            realistic.pos_rmse_m > 2.0 * ideal.pos_rmse_m,
+            "{} vs {}",
+            realistic.pos_rmse_m,
+            ideal.pos_rmse_m
+        );
     }
 
     #[test]

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use ratf_core::config::{Config, ConfigError, Policy};
+use ratf_core::config::{Config, ConfigError, Policy, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_host::apps::drive::{self, DriveReport, DriveTrace};
@@ -92,6 +92,21 @@ struct BenchArgs {
     /// Print one JSON object with the figures as the last line of stdout.
     #[arg(long)]
     json: bool,
+    /// How the simulated world departs from the robot's configuration (default: the
+    /// configuration's `[sim] world`, `ideal` unless set).
+    #[arg(long, value_enum)]
+    world: Option<WorldProfile>,
+}
+
+impl BenchArgs {
+    /// The configuration with the chosen world.
+    fn config(&self) -> anyhow::Result<Config> {
+        let mut config = load_config(self.config.as_deref())?;
+        if let Some(world) = self.world {
+            config.sim.world = world;
+        }
+        Ok(config)
+    }
 }
 
 #[derive(Debug, Args)]
@@ -173,6 +188,10 @@ struct SimArgs {
     /// whatever the server says (practice without a server).
     #[arg(long, value_name = "S")]
     force_start_s: Option<f64>,
+    /// How the simulated world departs from the robot's configuration (default: the
+    /// configuration's `[sim] world`, `ideal` unless set).
+    #[arg(long, value_enum)]
+    world: Option<WorldProfile>,
 }
 
 #[derive(Debug, Args)]
@@ -261,7 +280,7 @@ fn main() -> anyhow::Result<()> {
 
 fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::nav_bench::{self, Preset, Summary};
-    let config = load_config(args.bench.config.as_deref())?;
+    let config = args.bench.config()?;
     let trips = nav_bench::round_trips();
     let mut without_shortcuts = config.clone();
     without_shortcuts.navigation.shortcuts = !config.navigation.shortcuts;
@@ -355,7 +374,7 @@ fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
     if args.bench.json {
         println!(
             "{}",
-            serde_json::json!({ "ours": summaries[0], "original": summaries[1] })
+            serde_json::json!({ "world": config.sim.world, "ours": summaries[0], "original": summaries[1] })
         );
     }
     Ok(())
@@ -575,7 +594,7 @@ fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
 
 fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::loc_bench::{self, Metrics, nees_band};
-    let config = load_config(args.config.as_deref())?;
+    let config = args.config()?;
     let started = Instant::now();
     let figures = loc_bench::run(&config, args.seeds, |condition, seed, ours, original| {
         eprintln!(
@@ -612,7 +631,14 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
         started.elapsed().as_secs_f64()
     );
     if args.json {
-        println!("{}", serde_json::to_string(&figures)?);
+        let mut value = serde_json::to_value(figures)?;
+        for filter in ["ours", "original"] {
+            for condition in ["default", "faults"] {
+                value[filter][condition]["nees_band"] = serde_json::json!([lo, hi]);
+            }
+        }
+        value["world"] = serde_json::json!(config.sim.world);
+        println!("{value}");
     }
     Ok(())
 }
@@ -620,7 +646,10 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
 fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     use ratf_host::apps::drive::PoseRecord;
     use ratf_host::apps::round::{self, RoundEvent};
-    let config = load_config(args.config.as_deref())?;
+    let mut config = load_config(args.config.as_deref())?;
+    if let Some(world) = args.world {
+        config.sim.world = world;
+    }
     let field = Field::competition();
     fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
@@ -711,6 +740,8 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         log.write(&line);
     })?;
     let wall_s = started.elapsed().as_secs_f64();
+    println!("{}", report.truth);
+    log.write(&serde_json::json!({ "type": "truth", "truth": report.truth }));
     let mut summary = serde_json::to_value(&report)?;
     summary["type"] = serde_json::json!("summary");
     log.finish(&summary)?;
@@ -855,7 +886,8 @@ fn color_name(color: ratf_core::field::PartColor) -> &'static str {
 
 fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::round;
-    let config = load_config(args.bench.config.as_deref())?;
+    let config = args.bench.config()?;
+    println!("world: {}", config.sim.world);
     let started = Instant::now();
     let rows = round::bench(&config, args.bench.seeds, args.machine_delay_s, |r| {
         eprintln!(
@@ -887,7 +919,10 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     if args.bench.json {
-        println!("{}", serde_json::json!({ "rounds": rows }));
+        println!(
+            "{}",
+            serde_json::json!({ "world": config.sim.world, "rounds": rows })
+        );
     }
     Ok(())
 }

@@ -4,10 +4,49 @@ use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
 
+/// How far the simulated world's truth departs from the robot's beliefs (its
+/// configuration). Per seed, the simulator draws the truth from the profile's distributions
+/// (`ratf_sim::truth`, sources in `../shared/reference/real-world-errors.md`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum WorldProfile {
+    /// The world is exactly what the robot believes (the first wave's simulator): for
+    /// regression only, since no real floor is like it.
+    #[default]
+    Ideal,
+    /// The real-world error budget's "realistic" column: a lidar with its datasheet's
+    /// calibration errors, beacons placed with a tape, worn wheels, mecanum roller slip, a
+    /// MEMS gyro's scale and bias, motors that differ.
+    Realistic,
+    /// About twice realistic: a stress test.
+    Harsh,
+}
+
+impl WorldProfile {
+    /// The name used in the CLI, the config and the logs.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Ideal => "ideal",
+            Self::Realistic => "realistic",
+            Self::Harsh => "harsh",
+        }
+    }
+}
+
+impl std::fmt::Display for WorldProfile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// Simulator settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
+    /// How the world's truth departs from the robot's beliefs. `ideal` by default until the
+    /// robot scores in the realistic world (issue 11); benches take `--world`.
+    pub world: WorldProfile,
     /// Random seed; the same seed gives the same run. TOML integers are i64, so seeds above
     /// 2^63 − 1 cannot be written in a file.
     pub seed: u64,
@@ -108,6 +147,7 @@ impl Default for SimConfig {
             height_m: 0.75,
         });
         Self {
+            world: WorldProfile::Ideal,
             seed: 1,
             time_step_us: 1000,
             clutter,

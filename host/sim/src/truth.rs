@@ -1,0 +1,364 @@
+//! The world's truth, drawn per seed: what a real robot gets wrong about its own hardware
+//! and its hall. The robot's software keeps its configuration (its beliefs); the simulated
+//! world is built from [`WorldTruth::true_config`] and [`WorldTruth::true_field`] instead.
+//!
+//! The distributions are the real-world error budget's (`../shared/reference/
+//! real-world-errors.md`; its tags in brackets: [X4DS] the X4 datasheet, [MPU] the
+//! MPU-9250 specification, [D] derived from the 5dpo team's logs, [A] an assumption):
+//!
+//! | quantity | realistic | harsh |
+//! |---|---|---|
+//! | lidar range scale | U(±1.5 %) [X4DS] | U(±3.5 %) |
+//! | lidar range offset | U(±10 mm) [X4DS] | U(±20 mm) |
+//! | lidar range noise σ | 3 mm + 0.5 %·r [A, LDS01] | 6 mm + 1 %·r |
+//! | lidar zero angle (mount yaw) | U(±3°) [X4DS] | U(±3°) |
+//! | lidar mount position | N(0, 2 mm) per axis [A] | N(0, 5 mm) |
+//! | beacon centres | N(0, 5 mm) per axis [A, 5DPO] | U(±15 mm) |
+//! | wheel radius | −0.3 %, per wheel σ 0.3 % [D] | −1 %, σ 0.6 % |
+//! | lx + ly (turn scale) | +1.1 %, σ 0.3 % [D] | +3 %, σ 0.8 % |
+//! | mecanum lateral travel | 0.93 × [A, D] | 0.85 × |
+//! | gyro scale | U(±1.5 %) [MPU] | U(±3 %) |
+//! | gyro z bias | U(±2 °/s) [MPU] | U(±5 °/s) |
+//! | motor gain, per motor | U(±1 %) [D] | U(±5 %) |
+//! | battery voltage | U(11.4, 12.4) V [A: a 3S pack between rounds] | U(10.8, 12.6) V |
+//!
+//! Not drawn yet (issue 11 lists them): USB and lidar timing jitter, lidar rotation speed
+//! variation, motor load torque and battery sag within a round, each part's position and
+//! yaw in its slot, the body's true footprint.
+
+use serde::Serialize;
+
+use ratf_core::config::{Config, WorldProfile};
+use ratf_core::field::Field;
+use ratf_core::rng::SimRng;
+
+/// The truth of one simulated world.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct WorldTruth {
+    /// The profile it was drawn from.
+    pub profile: WorldProfile,
+    /// True range = measured geometry × this.
+    pub lidar_range_scale: f64,
+    /// Added to every range, m.
+    pub lidar_range_offset_m: f64,
+    /// Range noise σ at 0 m, m.
+    pub lidar_noise_base_m: f64,
+    /// Range noise σ growth per metre of range (a fraction).
+    pub lidar_noise_per_m: f64,
+    /// Mount yaw (zero angle) minus the believed one, degrees.
+    pub lidar_yaw_error_deg: f64,
+    /// Mount position minus the believed one, robot frame, m.
+    pub lidar_position_error_m: [f64; 2],
+    /// Each beacon's centre minus the believed one, world frame, m.
+    pub beacon_errors_m: [[f64; 2]; 4],
+    /// Each wheel's true radius over the believed one (motor index order).
+    pub wheel_radius_scale: [f64; 4],
+    /// True lx + ly over the believed.
+    pub turn_scale: f64,
+    /// Lateral (strafe) travel over what the wheels' kinematics says.
+    pub lateral_factor: f64,
+    /// Gyro reading over the true rate.
+    pub gyro_scale: f64,
+    /// Gyro z bias, rad/s.
+    pub gyro_bias_rad_s: f64,
+    /// Each motor's gain over the believed one.
+    pub motor_gain_scale: [f64; 4],
+    /// The battery's voltage, V.
+    pub battery_voltage_v: f64,
+}
+
+impl WorldTruth {
+    /// The ideal world: everything as the robot believes, and the gyro's bias
+    /// `gyro_bias_rad_s` (the scenario's).
+    pub fn ideal(config: &Config, gyro_bias_rad_s: f64) -> Self {
+        Self {
+            profile: WorldProfile::Ideal,
+            lidar_range_scale: 1.0,
+            lidar_range_offset_m: 0.0,
+            lidar_noise_base_m: config.lidar.range_noise_std_m,
+            lidar_noise_per_m: 0.0,
+            lidar_yaw_error_deg: 0.0,
+            lidar_position_error_m: [0.0; 2],
+            beacon_errors_m: [[0.0; 2]; 4],
+            wheel_radius_scale: [1.0; 4],
+            turn_scale: 1.0,
+            lateral_factor: 1.0,
+            gyro_scale: 1.0,
+            gyro_bias_rad_s,
+            motor_gain_scale: [1.0; 4],
+            battery_voltage_v: config.motor.battery_voltage_v,
+        }
+    }
+
+    /// The truth of `config.sim.world` for `config.sim.seed` (the ideal world's gyro bias
+    /// is `ideal_gyro_bias_rad_s`). Each quantity has its own random stream, so adding one
+    /// does not change the others' draws.
+    pub fn draw(config: &Config, ideal_gyro_bias_rad_s: f64) -> Self {
+        let profile = config.sim.world;
+        let k = match profile {
+            WorldProfile::Ideal => return Self::ideal(config, ideal_gyro_bias_rad_s),
+            WorldProfile::Realistic => Spread::REALISTIC,
+            WorldProfile::Harsh => Spread::HARSH,
+        };
+        let rng = SimRng::new(config.sim.seed).fork("truth");
+        let stream = |name: &str| rng.fork(name);
+        let u = |name: &str, half: f64| stream(name).uniform_in(-half, half);
+        let lidar_range_scale = 1.0 + u("lidar-scale", k.range_scale);
+        let lidar_range_offset_m = u("lidar-offset", k.range_offset_m);
+        let lidar_yaw_error_deg = u("lidar-yaw", k.lidar_yaw_deg);
+        let gyro_scale = 1.0 + u("gyro-scale", k.gyro_scale);
+        let gyro_bias_rad_s = u("gyro-bias", k.gyro_bias_deg_s).to_radians();
+        let mut mount = stream("lidar-mount");
+        let lidar_position_error_m = [
+            mount.normal(k.lidar_position_sigma_m),
+            mount.normal(k.lidar_position_sigma_m),
+        ];
+        let mut beacons = stream("beacons");
+        let beacon_errors_m = std::array::from_fn(|_| {
+            std::array::from_fn(|_| match k.beacon {
+                BeaconSpread::Normal(sigma) => beacons.normal(sigma),
+                BeaconSpread::Uniform(half) => beacons.uniform_in(-half, half),
+            })
+        });
+        let mut wheels = stream("wheel-radius");
+        let wheel_radius_scale = std::array::from_fn(|_| {
+            1.0 + k.wheel_radius_mean + wheels.normal(k.wheel_radius_sigma)
+        });
+        let turn_scale = 1.0 + k.turn_mean + stream("turn").normal(k.turn_sigma);
+        let mut motors = stream("motor-gain");
+        let motor_gain_scale =
+            std::array::from_fn(|_| 1.0 + motors.uniform_in(-k.motor_gain, k.motor_gain));
+        let battery_voltage_v = stream("battery").uniform_in(k.battery_v.0, k.battery_v.1);
+        Self {
+            profile,
+            lidar_range_scale,
+            lidar_range_offset_m,
+            lidar_noise_base_m: k.noise_base_m,
+            lidar_noise_per_m: k.noise_per_m,
+            lidar_yaw_error_deg,
+            lidar_position_error_m,
+            beacon_errors_m,
+            wheel_radius_scale,
+            turn_scale,
+            lateral_factor: k.lateral_factor,
+            gyro_scale,
+            gyro_bias_rad_s,
+            motor_gain_scale,
+            battery_voltage_v,
+        }
+    }
+
+    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise
+    /// and battery. (Per-wheel radius differences, the range scale and offset, the lateral
+    /// factor, the gyro's scale and the motors' gains are applied by the world's parts.)
+    pub fn true_config(&self, beliefs: &Config) -> Config {
+        let mut truth = beliefs.clone();
+        let robot = &mut truth.robot;
+        robot.lidar_x_m += self.lidar_position_error_m[0];
+        robot.lidar_y_m += self.lidar_position_error_m[1];
+        robot.lidar_yaw_deg += self.lidar_yaw_error_deg;
+        robot.wheel_diameter_m *= self.mean_wheel_radius_scale();
+        robot.front_back_wheel_distance_m *= self.turn_scale;
+        robot.left_right_wheel_distance_m *= self.turn_scale;
+        truth.lidar.range_noise_std_m = self.lidar_noise_base_m;
+        truth.motor.battery_voltage_v = self.battery_voltage_v;
+        truth
+    }
+
+    /// The mean of the wheels' radius scales.
+    pub fn mean_wheel_radius_scale(&self) -> f64 {
+        self.wheel_radius_scale.iter().sum::<f64>() / 4.0
+    }
+
+    /// Each wheel's radius over the mean (what the body's kinematics adds per wheel).
+    pub fn wheel_radius_spread(&self) -> [f64; 4] {
+        let mean = self.mean_wheel_radius_scale();
+        self.wheel_radius_scale.map(|s| s / mean)
+    }
+
+    /// The floor with the beacons where they truly stand (the rest is the rules').
+    pub fn true_field(&self, beliefs: &Config) -> Field {
+        let mut centres = beliefs.field.beacons_m;
+        for (centre, error) in centres.iter_mut().zip(self.beacon_errors_m) {
+            centre[0] += error[0];
+            centre[1] += error[1];
+        }
+        Field::competition().with_beacon_centres(centres)
+    }
+}
+
+impl std::fmt::Display for WorldTruth {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let beacon_mm = self
+            .beacon_errors_m
+            .iter()
+            .map(|[x, y]| format!("({:+.0},{:+.0})", x * 1e3, y * 1e3))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let wheels = self
+            .wheel_radius_scale
+            .iter()
+            .map(|s| format!("{:+.2}", (s - 1.0) * 100.0))
+            .collect::<Vec<_>>()
+            .join("/");
+        write!(
+            f,
+            "world {}: lidar range ×{:.4} {:+.1} mm, noise {:.1} mm + {:.2} %·r, yaw {:+.2}°, \
+             mount ({:+.1}, {:+.1}) mm; beacons {beacon_mm} mm; wheel radius {wheels} %, \
+             turns ×{:.4}, strafe ×{:.2}; gyro ×{:.4}, bias {:+.3} °/s; battery {:.2} V",
+            self.profile,
+            self.lidar_range_scale,
+            self.lidar_range_offset_m * 1e3,
+            self.lidar_noise_base_m * 1e3,
+            self.lidar_noise_per_m * 100.0,
+            self.lidar_yaw_error_deg,
+            self.lidar_position_error_m[0] * 1e3,
+            self.lidar_position_error_m[1] * 1e3,
+            self.turn_scale,
+            self.lateral_factor,
+            self.gyro_scale,
+            self.gyro_bias_rad_s.to_degrees(),
+            self.battery_voltage_v,
+        )
+    }
+}
+
+/// How a beacon's true centre spreads around the believed one.
+#[derive(Clone, Copy, Debug)]
+enum BeaconSpread {
+    /// Per axis N(0, σ), m.
+    Normal(f64),
+    /// Per axis U(±half), m.
+    Uniform(f64),
+}
+
+/// A profile's distribution parameters (see the module table).
+#[derive(Clone, Copy, Debug)]
+struct Spread {
+    range_scale: f64,
+    range_offset_m: f64,
+    noise_base_m: f64,
+    noise_per_m: f64,
+    lidar_yaw_deg: f64,
+    lidar_position_sigma_m: f64,
+    beacon: BeaconSpread,
+    wheel_radius_mean: f64,
+    wheel_radius_sigma: f64,
+    turn_mean: f64,
+    turn_sigma: f64,
+    lateral_factor: f64,
+    gyro_scale: f64,
+    gyro_bias_deg_s: f64,
+    motor_gain: f64,
+    battery_v: (f64, f64),
+}
+
+impl Spread {
+    const REALISTIC: Self = Self {
+        range_scale: 0.015,
+        range_offset_m: 0.010,
+        noise_base_m: 0.003,
+        noise_per_m: 0.005,
+        lidar_yaw_deg: 3.0,
+        lidar_position_sigma_m: 0.002,
+        beacon: BeaconSpread::Normal(0.005),
+        wheel_radius_mean: -0.003,
+        wheel_radius_sigma: 0.003,
+        turn_mean: 0.011,
+        turn_sigma: 0.003,
+        lateral_factor: 0.93,
+        gyro_scale: 0.015,
+        gyro_bias_deg_s: 2.0,
+        motor_gain: 0.01,
+        battery_v: (11.4, 12.4),
+    };
+
+    const HARSH: Self = Self {
+        range_scale: 0.035,
+        range_offset_m: 0.020,
+        noise_base_m: 0.006,
+        noise_per_m: 0.01,
+        lidar_yaw_deg: 3.0,
+        lidar_position_sigma_m: 0.005,
+        beacon: BeaconSpread::Uniform(0.015),
+        wheel_radius_mean: -0.01,
+        wheel_radius_sigma: 0.006,
+        turn_mean: 0.03,
+        turn_sigma: 0.008,
+        lateral_factor: 0.85,
+        gyro_scale: 0.03,
+        gyro_bias_deg_s: 5.0,
+        motor_gain: 0.05,
+        battery_v: (10.8, 12.6),
+    };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(world: WorldProfile, seed: u64) -> Config {
+        let mut config = Config::default();
+        config.sim.world = world;
+        config.sim.seed = seed;
+        config
+    }
+
+    #[test]
+    fn the_ideal_world_is_the_robots_beliefs() {
+        let beliefs = config(WorldProfile::Ideal, 3);
+        let truth = WorldTruth::draw(&beliefs, 0.005);
+        assert_eq!(truth, WorldTruth::ideal(&beliefs, 0.005));
+        assert_eq!(truth.true_config(&beliefs), beliefs);
+        assert_eq!(truth.true_field(&beliefs), Field::competition());
+    }
+
+    #[test]
+    fn draws_are_the_seeds_and_differ_between_seeds_within_their_bounds() {
+        for world in [WorldProfile::Realistic, WorldProfile::Harsh] {
+            let a = WorldTruth::draw(&config(world, 1), 0.0);
+            assert_eq!(a, WorldTruth::draw(&config(world, 1), 0.0));
+            let b = WorldTruth::draw(&config(world, 2), 0.0);
+            assert_ne!(a.lidar_range_scale, b.lidar_range_scale);
+            assert_ne!(a.beacon_errors_m, b.beacon_errors_m);
+            let k = if world == WorldProfile::Realistic {
+                Spread::REALISTIC
+            } else {
+                Spread::HARSH
+            };
+            for seed in 1..50 {
+                let t = WorldTruth::draw(&config(world, seed), 0.0);
+                assert!((t.lidar_range_scale - 1.0).abs() <= k.range_scale);
+                assert!(t.lidar_range_offset_m.abs() <= k.range_offset_m);
+                assert!(t.lidar_yaw_error_deg.abs() <= k.lidar_yaw_deg);
+                assert!(t.gyro_bias_rad_s.abs() <= k.gyro_bias_deg_s.to_radians());
+                assert!((k.battery_v.0..=k.battery_v.1).contains(&t.battery_voltage_v));
+                assert!(
+                    t.motor_gain_scale
+                        .iter()
+                        .all(|g| (g - 1.0).abs() <= k.motor_gain)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_true_config_moves_what_it_names_and_only_that() {
+        let beliefs = config(WorldProfile::Realistic, 7);
+        let truth = WorldTruth::draw(&beliefs, 0.0);
+        let world = truth.true_config(&beliefs);
+        let yaw_moved = world.robot.lidar_yaw_deg - beliefs.robot.lidar_yaw_deg;
+        assert!((yaw_moved - truth.lidar_yaw_error_deg).abs() < 1e-9);
+        let diameter_ratio = world.robot.wheel_diameter_m / beliefs.robot.wheel_diameter_m;
+        assert!((diameter_ratio - truth.mean_wheel_radius_scale()).abs() < 1e-12);
+        assert_eq!(world.motor.battery_voltage_v, truth.battery_voltage_v);
+        // What the robot decides with is untouched.
+        assert_eq!(world.navigation, beliefs.navigation);
+        assert_eq!(world.localisation, beliefs.localisation);
+        assert_eq!(world.mega, beliefs.mega);
+        let field = truth.true_field(&beliefs);
+        let moved = field.beacons()[2].circle.center;
+        let believed = beliefs.field.beacons_m[2];
+        assert!((moved.x - believed[0] - truth.beacon_errors_m[2][0]).abs() < 1e-12);
+    }
+}
