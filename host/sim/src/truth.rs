@@ -3,23 +3,23 @@
 //! world is built from [`WorldTruth::true_config`] and [`WorldTruth::true_field`] instead.
 //!
 //! The distributions are the real-world error budget's (`../shared/reference/
-//! real-world-errors.md`; its tags in brackets: [X4DS] the X4 datasheet, [MPU] the
-//! MPU-9250 specification, [D] derived from the 5dpo team's logs, [A] an assumption):
+//! real-world-errors.md`; its tags in brackets: \[X4DS\] the X4 datasheet, \[MPU\] the
+//! MPU-9250 specification, \[D\] derived from the 5dpo team's logs, \[A\] an assumption):
 //!
 //! | quantity | realistic | harsh |
 //! |---|---|---|
-//! | lidar range scale | U(±1.5 %) [X4DS] | U(±3.5 %) |
-//! | lidar range offset | U(±10 mm) [X4DS] | U(±20 mm) |
-//! | lidar range noise σ | 3 mm + 0.5 %·r [A, LDS01] | 6 mm + 1 %·r |
-//! | lidar zero angle (mount yaw) | U(±3°) [X4DS] | U(±3°) |
-//! | lidar mount position | N(0, 2 mm) per axis [A] | N(0, 5 mm) |
-//! | beacon centres | N(0, 5 mm) per axis [A, 5DPO] | U(±15 mm) |
-//! | wheel radius | −0.3 %, per wheel σ 0.3 % [D] | −1 %, σ 0.6 % |
-//! | lx + ly (turn scale) | +1.1 %, σ 0.3 % [D] | +3 %, σ 0.8 % |
-//! | mecanum lateral travel | 0.93 × [A, D] | 0.85 × |
-//! | gyro scale | U(±1.5 %) [MPU] | U(±3 %) |
-//! | gyro z bias | U(±2 °/s) [MPU] | U(±5 °/s) |
-//! | motor gain, per motor | U(±1 %) [D] | U(±5 %) |
+//! | lidar range scale | U(±1.5 %) \[X4DS\] | U(±3.5 %) |
+//! | lidar range offset | U(±10 mm) \[X4DS\] | U(±20 mm) |
+//! | lidar range noise σ | 3 mm + 0.5 %·r \[A, LDS01\] | 6 mm + 1 %·r |
+//! | lidar zero angle (mount yaw) | U(±3°) \[X4DS\] | U(±3°) |
+//! | lidar mount position | N(0, 2 mm) per axis \[A\] | N(0, 5 mm) |
+//! | beacon centres | N(0, 5 mm) per axis \[A, 5DPO\] | U(±15 mm) |
+//! | wheel radius | −0.3 %, per wheel σ 0.3 % \[D\] | −1 %, σ 0.6 % |
+//! | lx + ly (turn scale) | +1.1 %, σ 0.3 % \[D\] | +3 %, σ 0.8 % |
+//! | mecanum lateral travel | 0.93 × \[A, D\] | 0.85 × |
+//! | gyro scale | U(±1.5 %) \[MPU\] | U(±3 %) |
+//! | gyro z bias | U(±2 °/s) \[MPU\] | U(±5 °/s) |
+//! | motor gain, per motor | U(±1 %) \[D\] | U(±5 %) |
 //! | battery voltage | U(11.4, 12.4) V [A: a 3S pack between rounds] | U(10.8, 12.6) V |
 //!
 //! Not drawn yet (issue 11 lists them): USB and lidar timing jitter, lidar rotation speed
