@@ -289,6 +289,19 @@ impl RouteNavigator {
     }
 }
 
+impl RouteNavigator {
+    /// The creep to contact after the docking approach: speed, m/s, and how far, m.
+    fn creep(&self) -> (f64, f64) {
+        match self.preset {
+            Driving::Ours => (
+                self.config.navigation.dock_creep_speed_m_s,
+                self.config.navigation.dock_creep_m,
+            ),
+            Driving::Original => (ORIGINAL_CREEP_M_S, ORIGINAL_CREEP_LIMIT_M),
+        }
+    }
+}
+
 impl Navigator for RouteNavigator {
     fn go_to(&mut self, _now_us: u64, pose: Pose2, goal: WaypointId, dock: bool) {
         self.dock = dock;
@@ -342,15 +355,13 @@ impl Navigator for RouteNavigator {
             return (BodyTwist::default(), Arrival::Failed);
         }
         if let Some(from) = self.creep_from {
+            let (speed_m_s, limit_m) = self.creep();
             return if switch_pressed {
                 (BodyTwist::default(), Arrival::Docked)
-            } else if from.position().distance(pose.position()) > ORIGINAL_CREEP_LIMIT_M {
+            } else if from.position().distance(pose.position()) > limit_m {
                 (BodyTwist::default(), Arrival::Arrived)
             } else {
-                (
-                    BodyTwist::new(ORIGINAL_CREEP_M_S, 0.0, 0.0),
-                    Arrival::Moving,
-                )
+                (BodyTwist::new(speed_m_s, 0.0, 0.0), Arrival::Moving)
             };
         }
         let command = self
@@ -360,12 +371,11 @@ impl Navigator for RouteNavigator {
             Status::Following => Arrival::Moving,
             Status::Docked => Arrival::Docked,
             Status::Arrived | Status::Idle => {
-                if self.dock && self.preset == Driving::Original {
+                let (speed_m_s, limit_m) = self.creep();
+                if self.dock && limit_m > 0.0 {
+                    // At the pick pose with the switch open: creep on to the part.
                     self.creep_from = Some(pose);
-                    return (
-                        BodyTwist::new(ORIGINAL_CREEP_M_S, 0.0, 0.0),
-                        Arrival::Moving,
-                    );
+                    return (BodyTwist::new(speed_m_s, 0.0, 0.0), Arrival::Moving);
                 }
                 Arrival::Arrived
             }

@@ -98,6 +98,19 @@ struct BenchArgs {
     world: Option<WorldProfile>,
 }
 
+#[derive(Debug, Args)]
+struct RoundsBenchArgs {
+    #[command(flatten)]
+    bench: BenchArgs,
+    /// The first seed: the runs use seeds first-seed .. first-seed + seeds − 1 (report on
+    /// seeds other than those anything was tuned on).
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// Machine processing time, s.
+    #[arg(long, default_value_t = 0.0)]
+    machine_delay_s: f64,
+}
+
 impl BenchArgs {
     /// The configuration with the chosen world.
     fn config(&self) -> anyhow::Result<Config> {
@@ -107,15 +120,6 @@ impl BenchArgs {
         }
         Ok(config)
     }
-}
-
-#[derive(Debug, Args)]
-struct RoundsBenchArgs {
-    #[command(flatten)]
-    bench: BenchArgs,
-    /// Machine processing time, s.
-    #[arg(long, default_value_t = 0.0)]
-    machine_delay_s: f64,
 }
 
 #[derive(Debug, Args)]
@@ -889,7 +893,9 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     let config = args.bench.config()?;
     println!("world: {}", config.sim.world);
     let started = Instant::now();
-    let rows = round::bench(&config, args.bench.seeds, args.machine_delay_s, |r| {
+    let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
+    println!("seeds {} to {}", seeds.start(), seeds.end());
+    let rows = round::bench(&config, seeds.clone(), args.machine_delay_s, |r| {
         eprintln!(
             "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
             r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
@@ -921,7 +927,11 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     if args.bench.json {
         println!(
             "{}",
-            serde_json::json!({ "world": config.sim.world, "rounds": rows })
+            serde_json::json!({
+                "world": config.sim.world,
+                "seeds": [seeds.start(), seeds.end()],
+                "rounds": rows
+            })
         );
     }
     Ok(())

@@ -63,6 +63,15 @@ pub struct NavigationConfig {
     /// bring the speed to ~0.05 m/s by the time the switch closes (5 mm before the pick
     /// pose), so the robot coasts ~5 mm, well inside the 15 mm gap to the plate.
     pub dock_speed_m_s: f64,
+    /// How far beyond the pick pose the robot creeps straight on when it arrives there and
+    /// the switch is still open, m. 0.04: a 90 mm part in a 130 mm slot may stand 20 mm
+    /// deeper than its nominal place (competition.md §1.7), and the pose estimate may be a
+    /// centimetre off when the lidar's calibration is (real-world-errors.md); the original
+    /// creeps with no limit at all (original-system.md §6.4). 0 turns the creep off.
+    pub dock_creep_m: f64,
+    /// Creep speed, m/s. 0.05: 1 mm per 20 ms tick, so the robot stops within about a
+    /// millimetre of the contact once the switch reports it.
+    pub dock_creep_speed_m_s: f64,
     /// No rotation within this path length of the start, m. 0.10: leaving a slot, the
     /// robot's front is then 0.1 m clear of the divider tips (the original used 0.15 m,
     /// §6.3). The planner further restricts turning to where the swept disc is free.
@@ -96,6 +105,8 @@ impl Default for NavigationConfig {
             goal_heading_tolerance_deg: 1.0,
             dock_length_m: 0.05,
             dock_speed_m_s: 0.15,
+            dock_creep_m: 0.04,
+            dock_creep_speed_m_s: 0.05,
             rotate_after_m: 0.10,
             align_before_m: 0.08,
             shortcuts: false,
@@ -124,6 +135,13 @@ impl NavigationConfig {
         );
         c.non_negative("dock_length_m", self.dock_length_m);
         c.positive("dock_speed_m_s", self.dock_speed_m_s);
+        c.within("dock_creep_m", self.dock_creep_m, 0.0, 0.15);
+        c.within(
+            "dock_creep_speed_m_s",
+            self.dock_creep_speed_m_s,
+            0.005,
+            0.3,
+        );
         c.non_negative("rotate_after_m", self.rotate_after_m);
         c.non_negative("align_before_m", self.align_before_m);
         c.non_negative("shortcut_margin_m", self.shortcut_margin_m);
