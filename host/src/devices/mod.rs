@@ -263,6 +263,11 @@ impl RealDevices {
         *self.links.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
+    /// The links, shared, for a status display on another thread or tap.
+    pub fn link_states(&self) -> Arc<Mutex<LinkStates>> {
+        Arc::clone(&self.links)
+    }
+
     /// Latency of every reference batch written, µs: from the arrival of the input that
     /// produced it (the tick's time on the clock) to the end of the write.
     pub fn latencies_us(&self) -> &[u32] {
