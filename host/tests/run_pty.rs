@@ -229,3 +229,66 @@ fn a_missing_device_is_named_with_where_it_looked_and_what_to_do() {
         "{stderr}"
     );
 }
+
+#[test]
+fn sigterm_stops_the_robot_and_exits_130() {
+    let tmp = TempDir::new("run-sigterm");
+    let dir = &tmp.0;
+    let dev = dir.join("dev");
+    let mut world = Spawned::start(
+        &[
+            "sim",
+            "--round",
+            "1",
+            "--seed",
+            "2",
+            "--serve-pty",
+            dev.to_str().expect("utf-8 path"),
+        ],
+        &dir.join("serve.err"),
+    );
+    let port_line = world.wait_line(Duration::from_secs(30), |l| l.starts_with("server port "));
+    let port: u16 = port_line["server port ".len()..]
+        .trim()
+        .parse()
+        .expect("a port");
+    let config = robot_config(dir, port);
+    let mut robot = Spawned::start(
+        &[
+            "run",
+            "--config",
+            config.to_str().expect("utf-8 path"),
+            "--out",
+            dir.join("out").to_str().expect("utf-8 path"),
+            "--force-start",
+            "BBBB",
+            "--status-hz",
+            "0",
+        ],
+        &dir.join("run.err"),
+    );
+    // The operator's forced start: the robot drives at once.
+    robot.wait_line(Duration::from_secs(20), |l| l.contains("going for"));
+    let pid = nix::unistd::Pid::from_raw(robot.child.id() as i32);
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).expect("signal");
+    let status = robot.wait_exit(Duration::from_secs(5));
+    assert_eq!(
+        status.code(),
+        Some(130),
+        "{}\n{}",
+        robot.seen.join("\n"),
+        read(&dir.join("run.err"))
+    );
+    assert!(
+        robot
+            .seen
+            .iter()
+            .any(|l| l.starts_with("ratf run: interrupted"))
+            && robot
+                .seen
+                .iter()
+                .any(|l| l == "the robot was sent zero references and magnet off"),
+        "{}",
+        robot.seen.join("\n")
+    );
+}
