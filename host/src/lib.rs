@@ -5,6 +5,7 @@
 #![forbid(unsafe_code)]
 
 pub mod apps;
+pub mod devices;
 pub mod plot;
 pub mod recording;
 pub mod referee;

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 pub use check::Issue;
 pub use competition::{CompetitionConfig, Policy};
 pub use field::FieldConfig;
-pub use io::{LidarConfig, LinkConfig, RefereeConfig};
+pub use io::{ImuDevice, LidarConfig, LinkConfig, RefereeConfig};
 pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
 pub use motor::{MotorConfig, TractionConfig};

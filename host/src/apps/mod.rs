@@ -7,4 +7,6 @@ pub mod loc_bench;
 pub mod nav_bench;
 pub mod replay;
 pub mod round;
+pub mod run;
 pub mod scripts;
+pub mod serve_pty;

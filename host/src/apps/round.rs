@@ -596,7 +596,7 @@ pub fn bench(
 }
 
 /// Whether placing a `color` part at slot waypoint `slot` scores (competition.md §2).
-fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
+pub fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
     if (62..=65).contains(&slot) {
         return color == PartColor::Blue;
     }

@@ -51,6 +51,35 @@ enum Command {
     /// Re-run the robot's core over a recording (`ratf sim` writes one) and report the first
     /// divergence, or how another configuration changes the pose and the decisions.
     Replay(ReplayArgs),
+    /// Run the robot on its real devices: the Mega, the lidar, the IMU and the organisers'
+    /// server, as the configuration names them; recorded (ratf replay reads it).
+    #[command(after_help = "Exit codes:\n  \
+        0    the round finished (every action done); the robot is stopped\n  \
+        1    could not start: the configuration, or a device missing or wrong (the message \
+             says which, where it looked and what to do)\n  \
+        2    bad command line\n  \
+        3    a device was gone for good during the run ([link] give_up_after_s)\n  \
+        4    a thread panicked\n  \
+        130  stopped by Ctrl-C or SIGTERM\n\
+        On every way out the Mega gets zero references and magnet off first.")]
+    Run(RunArgs),
+}
+
+#[derive(Debug, Args)]
+struct RunArgs {
+    /// The robot's configuration (no simulator sections; `ratf config --check FILE --robot`).
+    #[arg(long, value_name = "FILE")]
+    config: PathBuf,
+    /// Start at once with this part list (incoming slots 1–4, letters B, G, R, X), without
+    /// waiting for the server's.
+    #[arg(long, value_name = "PARTS")]
+    force_start: Option<String>,
+    /// Directory for the recording.
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+    /// Status lines per second (0: none).
+    #[arg(long, default_value_t = 4.0)]
+    status_hz: f64,
 }
 
 #[derive(Debug, Args)]
@@ -196,6 +225,18 @@ struct SimArgs {
     /// configuration's `[sim] world`, `ideal` unless set).
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
+    /// Serve the world in real time to `ratf run` instead: the simulated Mega and X4 as
+    /// pseudo-terminals (symlinks DIR/mega and DIR/lidar), the mock server on UDP
+    /// 127.0.0.1 (its port printed). The world starts when DIR/mega is opened and ends a
+    /// few seconds after it is closed.
+    #[arg(long, value_name = "DIR")]
+    serve_pty: Option<PathBuf>,
+    /// With --serve-pty: the server's UDP port (0: any free port).
+    #[arg(long, default_value_t = 0, requires = "serve_pty")]
+    server_port: u16,
+    /// With --serve-pty: give up if nothing opens DIR/mega within this many seconds.
+    #[arg(long, default_value_t = 120.0, requires = "serve_pty")]
+    wait_for_robot_s: f64,
 }
 
 #[derive(Debug, Args)]
@@ -244,7 +285,9 @@ fn main() -> anyhow::Result<()> {
             println!("{}", String::from_utf8_lossy(&frame.encode()));
         }
         Command::Drive(args) => drive_command(&args)?,
+        Command::Sim(args) if args.serve_pty.is_some() => serve_pty_command(&args)?,
         Command::Sim(args) => sim_command(&args)?,
+        Command::Run(args) => run_command(&args),
         Command::Referee(args) => referee_command(&args)?,
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
@@ -935,4 +978,181 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+fn serve_pty_command(args: &SimArgs) -> anyhow::Result<()> {
+    use ratf_host::apps::round::{self, ROUND_LIMIT_S};
+    use ratf_host::apps::serve_pty::{self, ServeEvent, ServeOptions};
+    let mut config = load_config(args.config.as_deref())?;
+    if let Some(world) = args.world {
+        config.sim.world = world;
+    }
+    let dir = args.serve_pty.clone().context("--serve-pty DIR")?;
+    let options = ServeOptions {
+        dir,
+        round: round::RoundOptions {
+            machine_delay_s: args.machine_delay_s,
+            ..round::RoundOptions::new(args.round, args.seed, args.policy)
+        },
+        server_port: args.server_port,
+        limit_s: ROUND_LIMIT_S,
+        wait_for_robot_s: args.wait_for_robot_s,
+    };
+    let quit = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, std::sync::Arc::clone(&quit))
+            .context("installing the signal handlers")?;
+    }
+    let started = Instant::now();
+    let report = serve_pty::serve(
+        &config,
+        &options,
+        || quit.load(std::sync::atomic::Ordering::Relaxed),
+        |event| match event {
+            ServeEvent::Ready {
+                mega,
+                lidar,
+                server,
+            } => {
+                println!(
+                    "ratf sim --serve-pty: round {}, seed {}: mega {}, lidar {}, server udp {}",
+                    args.round,
+                    args.seed,
+                    mega.display(),
+                    lidar.display(),
+                    server
+                );
+                println!("server port {}", server.port());
+            }
+            ServeEvent::Connected => {
+                println!("   0.00 s  the Mega's port was opened: world started")
+            }
+            ServeEvent::Lidar { t_s, command } => {
+                println!("{t_s:7.2} s  lidar command {command:?}")
+            }
+            ServeEvent::Point { t_s, color, total } => println!(
+                "{t_s:7.2} s  +1: {} ({total} point{})",
+                color_name(*color),
+                if *total == 1 { "" } else { "s" }
+            ),
+            ServeEvent::HungUp { t_s } => println!("{t_s:7.2} s  the Mega's port was closed"),
+        },
+    )?;
+    println!(
+        "round {}: {} points, last at {:.1} s of world time; {} collisions; {:.1} s world in {:.1} s wall",
+        args.round,
+        report.points,
+        report.last_point_s,
+        report.collisions,
+        report.world_s,
+        started.elapsed().as_secs_f64()
+    );
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "points": report.points,
+                "last_point_s": report.last_point_s,
+                "collisions": report.collisions,
+                "world_s": report.world_s,
+                "connected": report.connected,
+            })
+        );
+    }
+    Ok(())
+}
+
+/// `ratf run`: exits with the codes its help lists.
+fn run_command(args: &RunArgs) -> ! {
+    use ratf_host::apps::run::{self, EXIT_SETUP, RunOptions};
+    use ratf_host::devices::Shared;
+    let fail = |message: &str| -> ! {
+        eprintln!("ratf run: {message}");
+        std::process::exit(EXIT_SETUP);
+    };
+    let config = match Config::load_robot(&args.config) {
+        Ok(config) => config,
+        Err(ConfigError::Invalid { issues, .. }) => {
+            eprintln!(
+                "{}: {} invalid value(s):",
+                args.config.display(),
+                issues.len()
+            );
+            for issue in issues {
+                eprintln!("  {issue}");
+            }
+            std::process::exit(EXIT_SETUP);
+        }
+        Err(e) => fail(&e.to_string()),
+    };
+    let force_start = args.force_start.as_ref().map(|text| {
+        ratf_core::referee::protocol::parse_letters(&text.trim().to_ascii_uppercase())
+            .unwrap_or_else(|| {
+                fail(&format!(
+                    "--force-start {text:?}: expected 4 letters from B, G, R, X"
+                ))
+            })
+    });
+    if let Err(e) = fs::create_dir_all(&args.out) {
+        fail(&format!("creating {}: {e}", args.out.display()));
+    }
+    let shared = Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
+            fail(&format!("installing the signal handlers: {e}"));
+        }
+    }
+    // A panic in any thread stops the run (the loop sees the flag within a tick).
+    let previous = std::panic::take_hook();
+    let on_panic = shared.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        on_panic.mark_panicked();
+        previous(info);
+    }));
+    let options = RunOptions {
+        force_start,
+        recording: run::default_recording(&args.out),
+        status_hz: args.status_hz,
+    };
+    let outcome = std::panic::catch_unwind(|| run::run_robot(&config, &options, &shared));
+    let report = match outcome {
+        Ok(Ok(report)) => report,
+        Ok(Err(e)) => fail(&e.to_string()),
+        Err(_) => {
+            eprintln!("ratf run: panicked; the robot was sent zero references and magnet off");
+            std::process::exit(run::EXIT_PANIC);
+        }
+    };
+    println!(
+        "ratf run: {}: placed {} part(s), {:.1} s from the part list to the last placement; \
+         {:.1} s of robot time, {} inputs",
+        match &report.outcome {
+            run::Outcome::Finished => "finished".to_owned(),
+            run::Outcome::Interrupted => "interrupted".to_owned(),
+            run::Outcome::DeviceFailed(why) => format!("device failure: {why}"),
+            run::Outcome::Panicked => "a thread panicked".to_owned(),
+        },
+        report.placed,
+        report.time_s,
+        report.robot_s,
+        report.inputs
+    );
+    println!(
+        "latency from an input's arrival to its references written: p50 {} µs, p99 {} µs, max \
+         {} µs over {} batches; host watchdog batches {}; CPU {:.1} ms per s; peak RSS {} KiB",
+        report.latency.p50_us,
+        report.latency.p99_us,
+        report.latency.max_us,
+        report.latency.count,
+        report.watchdog_batches,
+        report.cpu_per_s * 1e3,
+        report.max_rss_kib
+    );
+    println!(
+        "recorded {} (ratf replay {})",
+        report.recording.display(),
+        report.recording.display()
+    );
+    println!("the robot was sent zero references and magnet off");
+    std::process::exit(report.outcome.exit_code());
 }

@@ -51,11 +51,24 @@ impl LidarConfig {
     }
 }
 
-/// Serial ports.
+/// Which IMU `ratf run` reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ImuDevice {
+    /// The MPU9255 on `[robot.imu] i2c_device`; if the bus is not there, the robot runs
+    /// without it (a warning says so).
+    #[default]
+    Mpu9255,
+    /// No IMU: the core gets no IMU samples.
+    None,
+}
+
+/// The robot's devices on the Pi: serial ports, the IMU, and how `ratf run` keeps them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LinkConfig {
-    /// The Mega's port. `/dev/ttyACM0`: original `serial_port_name` (§1.3).
+    /// The Mega's port. `/dev/ttyACM0`: original `serial_port_name` (§1.3); a udev rule can
+    /// give it a stable name such as `/dev/ratf-mega`.
     pub mega_port: String,
     /// The Mega's baud rate. 115200 8N1: original firmware (§2.1).
     pub mega_baud: u32,
@@ -63,6 +76,22 @@ pub struct LinkConfig {
     pub lidar_port: String,
     /// The lidar's baud rate. 128000: X4 datasheet, original `baud_rate` (§1.3).
     pub lidar_baud: u32,
+    /// The IMU `ratf run` reads: `mpu9255` (on `[robot.imu] i2c_device`) or `none`.
+    pub imu: ImuDevice,
+    /// After opening the Mega's port (which resets the board through DTR), how long to
+    /// wait for its `r` or a telemetry batch before sending references anyway, ms. 3000:
+    /// the bootloader takes 1–2 s (crates.md §1). At most 60 000.
+    pub mega_sync_timeout_ms: u32,
+    /// How often a lost serial port is tried again, ms. 500: assumption (the original's
+    /// ROS 2 driver retries every 1 s). 10 to 60 000.
+    pub reconnect_period_ms: u32,
+    /// After the lidar's start command, how long it may stay silent (spin-up) before the
+    /// port is reopened and the command sent again, ms. 5000: the X4 spins up within about
+    /// 2 s (assumption, to be measured). 100 to 60 000.
+    pub lidar_spinup_timeout_ms: u32,
+    /// A device away (port gone, silent) this long ends `ratf run` with a device failure,
+    /// s. 10: long enough to replug a cable. 1 to 3600.
+    pub give_up_after_s: u32,
 }
 
 impl Default for LinkConfig {
@@ -72,6 +101,11 @@ impl Default for LinkConfig {
             mega_baud: 115_200,
             lidar_port: "/dev/ttyUSB0".to_owned(),
             lidar_baud: 128_000,
+            imu: ImuDevice::Mpu9255,
+            mega_sync_timeout_ms: 3_000,
+            reconnect_period_ms: 500,
+            lidar_spinup_timeout_ms: 5_000,
+            give_up_after_s: 10,
         }
     }
 }
@@ -82,6 +116,30 @@ impl LinkConfig {
         c.nonzero("mega_baud", self.mega_baud.into());
         c.non_empty("lidar_port", &self.lidar_port);
         c.nonzero("lidar_baud", self.lidar_baud.into());
+        c.within(
+            "mega_sync_timeout_ms",
+            f64::from(self.mega_sync_timeout_ms),
+            0.0,
+            60_000.0,
+        );
+        c.within(
+            "reconnect_period_ms",
+            f64::from(self.reconnect_period_ms),
+            10.0,
+            60_000.0,
+        );
+        c.within(
+            "lidar_spinup_timeout_ms",
+            f64::from(self.lidar_spinup_timeout_ms),
+            100.0,
+            60_000.0,
+        );
+        c.within(
+            "give_up_after_s",
+            f64::from(self.give_up_after_s),
+            1.0,
+            3_600.0,
+        );
     }
 }
 

@@ -1,0 +1,343 @@
+//! The Arduino Mega on a serial port.
+//!
+//! The thread reads with a short timeout, feeds the bytes through the core's sans-I/O
+//! [`MegaLink`] stamped at arrival, and sends telemetry and resets to the loop. The loop
+//! writes references through a [`MegaHandle`] on its own 50 Hz tick, never only in reply to
+//! telemetry (original-system.md §10.1).
+//!
+//! - **Opening resets the board** (DTR): nothing is written until the Mega has spoken (its
+//!   `r` or a telemetry batch) or `[link] mega_sync_timeout_ms` has passed, so the
+//!   bootloader never sees our frames.
+//! - **Unplug**: a read error or a vanished port reports [`Input::DeviceFault`] (the core
+//!   stops), drops the write half, and the thread reopens the port every
+//!   `[link] reconnect_period_ms` and resynchronises ([`MegaLink::reset`], wait for `r`)
+//!   without restarting `ratf`. Away longer than `[link] give_up_after_s`: [`Message::Gone`].
+//! - **Host watchdog** (§10.2, on the age of the last reference): if the core produced no
+//!   references for [`DEFAULT_REFERENCE_TIMEOUT_US`], this thread writes zero references
+//!   and magnet off every control period until the core speaks again.
+
+use std::io::{ErrorKind, Read};
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use ratf_core::drivers::mega_link::{
+    DEFAULT_REFERENCE_TIMEOUT_US, MegaEvent, MegaLink, MegaLinkConfig, reference_is_stale,
+};
+use ratf_core::runtime::{DeviceKind, Input, Stamped, Timestamp, WheelCommand};
+use serialport::SerialPort;
+
+use super::{Clock, HOST_TICK_PERIOD_US, LinkState, Message, Shared, report};
+
+/// Read timeout of the port: how often the thread looks at the watchdog and the quit flag.
+const READ_TIMEOUT: Duration = Duration::from_millis(5);
+
+/// Where the Mega is and how to keep it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MegaSettings {
+    /// The port's path.
+    pub port: String,
+    /// Baud rate.
+    pub baud: u32,
+    /// The link's settings (checksums, the firmware's telemetry latency).
+    pub link: MegaLinkConfig,
+    /// How long to wait for the Mega to speak after opening before writing anyway.
+    pub sync_timeout: Duration,
+    /// How often a lost port is tried again.
+    pub reconnect_period: Duration,
+    /// Away this long: gone for good.
+    pub give_up_after: Duration,
+    /// The host watchdog's timeout, µs.
+    pub watchdog_timeout_us: u64,
+}
+
+impl MegaSettings {
+    /// The settings of `config`.
+    pub fn from_config(config: &ratf_core::config::Config) -> Self {
+        Self {
+            port: config.link.mega_port.clone(),
+            baud: config.link.mega_baud,
+            link: MegaLinkConfig {
+                send_checksums: config.mega.send_checksums,
+                baud: config.link.mega_baud,
+                telemetry_latency_us: config.mega.telemetry_latency_us,
+            },
+            sync_timeout: Duration::from_millis(config.link.mega_sync_timeout_ms.into()),
+            reconnect_period: Duration::from_millis(config.link.reconnect_period_ms.into()),
+            give_up_after: Duration::from_secs(config.link.give_up_after_s.into()),
+            watchdog_timeout_us: DEFAULT_REFERENCE_TIMEOUT_US,
+        }
+    }
+}
+
+/// Open a serial port `path` at `baud`, 8N1, no flow control, with a short read timeout.
+pub fn open_port(path: &str, baud: u32) -> serialport::Result<Box<dyn SerialPort>> {
+    serialport::new(path, baud)
+        .timeout(READ_TIMEOUT)
+        .flow_control(serialport::FlowControl::None)
+        .open()
+}
+
+/// The write half: the port (once the Mega has spoken), the encoder, the watchdog's memory.
+struct Writer {
+    port: Option<Box<dyn SerialPort>>,
+    link: MegaLink,
+    /// When the core last produced references (clock µs).
+    last_reference_us: Option<u64>,
+    /// When anything was last written (clock µs), for the watchdog's pace.
+    last_write_us: Option<u64>,
+    batches_written: u64,
+    watchdog_batches: u64,
+}
+
+impl std::fmt::Debug for Writer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Writer")
+            .field("open", &self.port.is_some())
+            .field("last_reference_us", &self.last_reference_us)
+            .field("batches_written", &self.batches_written)
+            .field("watchdog_batches", &self.watchdog_batches)
+            .finish()
+    }
+}
+
+impl Writer {
+    fn write(&mut self, command: &WheelCommand, now_us: u64) -> bool {
+        let Some(port) = self.port.as_mut() else {
+            return false;
+        };
+        let Ok(bytes) = self
+            .link
+            .encode_references(command.wheel_speeds_rad_s, command.solenoid_on)
+        else {
+            return false;
+        };
+        match port.write_all(&bytes).and_then(|()| port.flush()) {
+            Ok(()) => {
+                self.last_write_us = Some(now_us);
+                self.batches_written += 1;
+                true
+            }
+            // The reading thread sees the port go and reconnects.
+            Err(_) => {
+                self.port = None;
+                false
+            }
+        }
+    }
+}
+
+/// The loop's side of the Mega: write references, stop the robot. Cloned into the thread
+/// (watchdog) and the exit paths.
+#[derive(Clone, Debug)]
+pub struct MegaHandle {
+    writer: Arc<Mutex<Writer>>,
+}
+
+impl MegaHandle {
+    /// A handle with no port yet; `link` encodes the batches.
+    pub fn new(link: MegaLinkConfig) -> Self {
+        Self {
+            writer: Arc::new(Mutex::new(Writer {
+                port: None,
+                link: MegaLink::new(link),
+                last_reference_us: None,
+                last_write_us: None,
+                batches_written: 0,
+                watchdog_batches: 0,
+            })),
+        }
+    }
+
+    // A panic elsewhere must not keep the robot from stopping: a poisoned lock is used as
+    // it is (the writer holds no invariant a panic could break half-way).
+    fn lock(&self) -> MutexGuard<'_, Writer> {
+        self.writer.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Write the core's references now (and feed the host watchdog); false if the Mega is
+    /// not writable (not synchronised yet, or lost).
+    pub fn send_references(&self, command: &WheelCommand, now: Timestamp) -> bool {
+        let mut writer = self.lock();
+        writer.last_reference_us = Some(now.as_us());
+        writer.write(command, now.as_us())
+    }
+
+    /// Zero references and magnet off, now (best effort: false if the Mega is not
+    /// writable).
+    pub fn stop(&self, now: Timestamp) -> bool {
+        self.lock().write(&WheelCommand::STOP, now.as_us())
+    }
+
+    /// Batches written so far: by the core, and by the watchdog.
+    pub fn batches_written(&self) -> (u64, u64) {
+        let writer = self.lock();
+        (writer.batches_written, writer.watchdog_batches)
+    }
+
+    fn install(&self, port: Option<Box<dyn SerialPort>>) {
+        self.lock().port = port;
+    }
+
+    fn writable(&self) -> bool {
+        self.lock().port.is_some()
+    }
+
+    /// The host watchdog at `now_us`: zero references if the core's last is stale, at most
+    /// once per control period.
+    fn watchdog(&self, now_us: u64, timeout_us: u64) {
+        let mut writer = self.lock();
+        let stale = reference_is_stale(writer.last_reference_us, now_us, timeout_us);
+        let due = writer
+            .last_write_us
+            .is_none_or(|last| now_us.saturating_sub(last) >= HOST_TICK_PERIOD_US);
+        if stale && due && writer.write(&WheelCommand::STOP, now_us) {
+            writer.watchdog_batches += 1;
+        }
+    }
+}
+
+/// Run the Mega's thread on `port` (already opened and checked by the caller).
+pub fn spawn(
+    settings: MegaSettings,
+    port: Box<dyn SerialPort>,
+    clock: Clock,
+    tx: Sender<Message>,
+    handle: MegaHandle,
+    shared: Shared,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("mega".to_owned())
+        .spawn(move || MegaThread::new(settings, clock, tx, handle, shared).run(port))
+}
+
+struct MegaThread {
+    settings: MegaSettings,
+    clock: Clock,
+    tx: Sender<Message>,
+    handle: MegaHandle,
+    shared: Shared,
+    link: MegaLink,
+}
+
+impl MegaThread {
+    fn new(
+        settings: MegaSettings,
+        clock: Clock,
+        tx: Sender<Message>,
+        handle: MegaHandle,
+        shared: Shared,
+    ) -> Self {
+        Self {
+            link: MegaLink::new(settings.link),
+            settings,
+            clock,
+            tx,
+            handle,
+            shared,
+        }
+    }
+
+    fn run(mut self, first: Box<dyn SerialPort>) {
+        let mut port = Some(first);
+        let mut lost_since: Option<Instant> = None;
+        while !self.shared.quitting() {
+            let Some(open) = port.take() else {
+                // Lost: wait, retry, give up after a while.
+                let since = *lost_since.get_or_insert_with(Instant::now);
+                if since.elapsed() >= self.settings.give_up_after {
+                    report(
+                        &self.tx,
+                        Message::Gone {
+                            device: DeviceKind::Mega,
+                            message: format!(
+                                "{}: away for {} s; check the USB cable and [link] mega_port",
+                                self.settings.port,
+                                self.settings.give_up_after.as_secs()
+                            ),
+                        },
+                    );
+                    return;
+                }
+                std::thread::sleep(self.settings.reconnect_period);
+                port = open_port(&self.settings.port, self.settings.baud).ok();
+                continue;
+            };
+            lost_since = None;
+            let reason = self.session(open);
+            self.handle.install(None);
+            if self.shared.quitting() {
+                return;
+            }
+            let alive = report(
+                &self.tx,
+                Message::Input(Stamped::new(
+                    self.clock.now(),
+                    Input::DeviceFault {
+                        device: DeviceKind::Mega,
+                        message: format!("{}: {reason}; reconnecting", self.settings.port),
+                    },
+                )),
+            ) && report(
+                &self.tx,
+                Message::Link(DeviceKind::Mega, LinkState::Reconnecting),
+            );
+            if !alive {
+                return;
+            }
+        }
+    }
+
+    /// Read from an open port until it fails (the reason) or the run quits.
+    fn session(&mut self, mut port: Box<dyn SerialPort>) -> String {
+        // Opening reset the board: start over, and write nothing until it speaks.
+        self.link.reset();
+        let mut writer = match port.try_clone() {
+            Ok(clone) => Some(clone),
+            Err(e) => return format!("cannot share the port: {e}"),
+        };
+        report(
+            &self.tx,
+            Message::Link(DeviceKind::Mega, LinkState::Syncing),
+        );
+        let opened = Instant::now();
+        let mut buf = [0u8; 512];
+        let mut inputs = Vec::new();
+        while !self.shared.quitting() {
+            match port.read(&mut buf) {
+                Ok(0) => return "the port closed".to_owned(),
+                Ok(n) => {
+                    let now = self.clock.now();
+                    self.link.feed(&buf[..n], now.as_us(), |event| {
+                        inputs.push(match event {
+                            MegaEvent::Telemetry(telemetry) => Input::Wheels(telemetry),
+                            MegaEvent::Reset { .. } => Input::MegaReset,
+                        });
+                    });
+                    if !inputs.is_empty() && writer.is_some() {
+                        self.handle.install(writer.take());
+                        report(&self.tx, Message::Link(DeviceKind::Mega, LinkState::Up));
+                    }
+                    for input in inputs.drain(..) {
+                        if !report(&self.tx, Message::Input(Stamped::new(now, input))) {
+                            return "the loop ended".to_owned();
+                        }
+                    }
+                }
+                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::Interrupted) => {}
+                Err(e) => return format!("read failed: {e}"),
+            }
+            if writer.is_some() && opened.elapsed() >= self.settings.sync_timeout {
+                // A Mega that did not reset on opening: it needs references all the same.
+                self.handle.install(writer.take());
+                report(&self.tx, Message::Link(DeviceKind::Mega, LinkState::Up));
+            }
+            if self.handle.writable() {
+                self.handle
+                    .watchdog(self.clock.now().as_us(), self.settings.watchdog_timeout_us);
+            }
+        }
+        "quit".to_owned()
+    }
+}
