@@ -11,6 +11,15 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::time::{Duration, Instant};
 
 use std::os::unix::process::CommandExt;
+use std::sync::{Mutex, MutexGuard, PoisonError};
+
+/// The tests run one at a time: each runs a world and a robot in real time, and two pairs
+/// side by side on a 2-core machine would starve each other's 50 Hz loops.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn one_at_a_time() -> MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(PoisonError::into_inner)
+}
 
 /// A child in its own process group, killed (the whole group) on drop; its stdout lines
 /// arrive on a channel.
@@ -142,6 +151,7 @@ fn read(path: &Path) -> String {
 
 #[test]
 fn ratf_run_completes_round_1_with_full_score_against_the_served_world() {
+    let _serial = one_at_a_time();
     let tmp = TempDir::new("run-pty");
     let dir = &tmp.0;
     let dev = dir.join("dev");
@@ -207,6 +217,7 @@ fn ratf_run_completes_round_1_with_full_score_against_the_served_world() {
 
 #[test]
 fn a_missing_device_is_named_with_where_it_looked_and_what_to_do() {
+    let _serial = one_at_a_time();
     let tmp = TempDir::new("run-missing");
     let config = robot_config(&tmp.0, 39_899);
     let mut robot = Spawned::start(
@@ -232,6 +243,7 @@ fn a_missing_device_is_named_with_where_it_looked_and_what_to_do() {
 
 #[test]
 fn sigterm_stops_the_robot_and_exits_130() {
+    let _serial = one_at_a_time();
     let tmp = TempDir::new("run-sigterm");
     let dir = &tmp.0;
     let dev = dir.join("dev");
