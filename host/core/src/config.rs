@@ -282,6 +282,19 @@ mod tests {
     }
 
     #[test]
+    fn the_lidar_calibration_undoes_the_range_error_and_is_bounded() {
+        let c = Config::from_toml_str("[lidar]\nrange_scale = 1.012\nrange_offset_m = -0.008\n")
+            .unwrap();
+        let true_m = 1.3;
+        let read_m = 1.012 * true_m - 0.008;
+        assert!((c.lidar.corrected_range_m(read_m) - true_m).abs() < 1e-12);
+        assert_eq!(
+            keys_of("[lidar]\nrange_scale = 1.5\nrange_offset_m = 0.2\n"),
+            ["lidar.range_scale", "lidar.range_offset_m"]
+        );
+    }
+
+    #[test]
     fn partial_file_keeps_other_defaults() {
         let c =
             Config::from_toml_str("[robot]\nwheel_diameter_m = 0.065\n[sim]\nseed = 7\n").unwrap();

@@ -8,6 +8,7 @@
 //! builds the world on these types, and `ratf-host` drives the core with real devices.
 #![forbid(unsafe_code)]
 
+pub mod calibration;
 pub mod competition;
 pub mod config;
 pub mod control;

@@ -11,7 +11,7 @@
 //! the direction of motion is kept. The robot's software never sees the ground truth: its
 //! pose is the estimator's.
 
-use crate::config::Config;
+use crate::config::{Config, LidarConfig};
 use crate::field::geometry::Pose2;
 use crate::kinematics::{BodyTwist, Mecanum};
 use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
@@ -76,6 +76,7 @@ impl EstimatorKind {
 pub struct Estimation {
     odometry: Odometry,
     estimator: Box<dyn PoseEstimator>,
+    lidar: LidarConfig,
 }
 
 impl std::fmt::Debug for Estimation {
@@ -95,6 +96,7 @@ impl Estimation {
         Self {
             odometry,
             estimator: kind.build(config, pose, 0),
+            lidar: config.lidar.clone(),
         }
     }
 
@@ -115,7 +117,15 @@ impl Estimation {
                 None
             }
             Input::Scan(scan) => {
-                self.estimator.on_scan(scan);
+                if self.lidar.range_scale == 1.0 && self.lidar.range_offset_m == 0.0 {
+                    self.estimator.on_scan(scan);
+                } else {
+                    let mut corrected = scan.clone();
+                    for point in &mut corrected.points {
+                        point.range_m = self.lidar.corrected_range_m(point.range_m);
+                    }
+                    self.estimator.on_scan(&corrected);
+                }
                 None
             }
             Input::Imu(sample) => {

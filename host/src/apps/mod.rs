@@ -2,6 +2,7 @@
 //! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`]) and the
 //! replay of a recording ([`replay`]).
 
+pub mod calibrate;
 pub mod drive;
 pub mod loc_bench;
 pub mod nav_bench;

@@ -22,6 +22,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use crate::apps::calibrate::{self, CalibrateError};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -145,6 +146,9 @@ pub enum RoundError {
     /// The recording could not be written.
     #[error("recording: {0}")]
     Recording(#[from] Box<RecordingError>),
+    /// The calibration before a calibrated round failed.
+    #[error(transparent)]
+    Calibration(#[from] CalibrateError),
 }
 
 /// How a round is run.
@@ -339,6 +343,19 @@ pub fn run_with_taps(
     config: &Config,
     options: &RoundOptions,
     taps: &mut [&mut dyn Tap],
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    run_in_world(config, config, options, taps, on_event)
+}
+
+/// Run a round in the world drawn for `world` (the configuration the team wrote, with the
+/// seed's errors) with a robot that believes `robot` (e.g. `world` after `ratf calibrate`:
+/// calibrating changes what the robot believes, not the hall).
+pub fn run_in_world(
+    world: &Config,
+    robot: &Config,
+    options: &RoundOptions,
+    taps: &mut [&mut dyn Tap],
     mut on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
     let RoundOptions {
@@ -350,7 +367,8 @@ pub fn run_with_taps(
         silent_server,
         server_removes,
     } = *options;
-    let config = options.apply_to(config);
+    let config = options.apply_to(world);
+    let robot_config = options.apply_to(robot);
     let field = Field::competition();
     let letters = round_parts(round, seed)?;
     let machine_delay_us = (machine_delay_s * 1e6) as u64;
@@ -387,7 +405,7 @@ pub fn run_with_taps(
         skipped: 0,
         events: Vec::new(),
     };
-    let mut core = Core::new(&config, scenario.start_pose)?;
+    let mut core = Core::new(&robot_config, scenario.start_pose)?;
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut last_batches = 0;
@@ -550,13 +568,26 @@ pub struct BenchRow {
 }
 
 /// Every round with both policies over `seeds` (e.g. `11..=60`: tune on some seeds, report
-/// on others); `on_run` hears each report.
+/// on others); `on_run` hears each report. With `calibrated`, each seed's world is first
+/// calibrated (the calibration drive with the tape measures, [`calibrate::run_in_sim`]) and
+/// both policies' robots believe the calibration.
 pub fn bench(
     config: &Config,
     seeds: std::ops::RangeInclusive<u64>,
     machine_delay_s: f64,
+    calibrated: bool,
     mut on_run: impl FnMut(&RoundReport),
 ) -> Result<Vec<BenchRow>, RoundError> {
+    let mut beliefs = std::collections::BTreeMap::new();
+    for seed in seeds.clone() {
+        let mut seeded = config.clone();
+        seeded.sim.seed = seed;
+        if calibrated {
+            let run = calibrate::run_in_sim(&seeded, true)?;
+            run.calibration.apply(&mut seeded);
+        }
+        beliefs.insert(seed, seeded);
+    }
     let mut rows = Vec::new();
     for round in 1..=3 {
         for policy in Policy::ALL {
@@ -576,7 +607,7 @@ pub fn bench(
                     machine_delay_s,
                     ..RoundOptions::new(round, seed, policy)
                 };
-                let report = run_round(config, &options, |_| {})?;
+                let report = run_in_world(config, &beliefs[&seed], &options, &mut [], |_| {})?;
                 on_run(&report);
                 row.runs += 1;
                 row.collisions += report.collisions;

@@ -128,12 +128,61 @@ impl Builder {
         self
     }
 
+    /// A pause of `seconds`, recorded as a window to take still scans in.
+    fn stop(&mut self, seconds: f64, windows: &mut Vec<StopWindow>) -> &mut Self {
+        windows.push(StopWindow {
+            start_s: self.time_s,
+            end_s: self.time_s + seconds,
+        });
+        self.pause(seconds)
+    }
+
     fn build(&self, start: Pose2) -> Script {
         Script {
             start,
             keyframes: self.keyframes.clone(),
         }
     }
+}
+
+/// A time window in which a script holds the robot still, s since its start.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopWindow {
+    /// When the robot has been commanded to rest (it is still ramping down for a moment).
+    pub start_s: f64,
+    /// When the next leg starts.
+    pub end_s: f64,
+}
+
+/// How long the calibration drive stands at each stop, s: 0.5 s to come to rest and about
+/// ten revolutions of the X4 at 7 Hz.
+pub const CALIBRATION_STOP_S: f64 = 2.0;
+
+/// The calibration drive (`ratf calibrate`): the square's loop around machine A (heading
+/// fixed, facing +y; up 0.71 m, right 0.59 m, down, left, on the square's own clear path)
+/// at 0.2 m/s with a stop at the start, halfway along each side and at each corner: nine
+/// stops, every beacon in view from each, about 35 s. Forward and strafe legs in both
+/// directions, so the direction driven (which the wheels give well) shows the lidar's zero
+/// angle, and the poles are seen from 0.3 m to 1.9 m (which separates the range offset
+/// from the scale).
+pub fn calibration_drive() -> (Script, Vec<StopWindow>) {
+    let (speed, ramp) = (0.2, 0.3);
+    let (height, width) = (0.71, 0.59);
+    let mut windows = Vec::new();
+    let mut b = Builder::new();
+    b.stop(CALIBRATION_STOP_S, &mut windows);
+    for (dir_x, dir_y, length) in [
+        (1.0, 0.0, height),
+        (0.0, -1.0, width),
+        (-1.0, 0.0, height),
+        (0.0, 1.0, width),
+    ] {
+        for _ in 0..2 {
+            b.straight(dir_x, dir_y, length / 2.0, speed, ramp)
+                .stop(CALIBRATION_STOP_S, &mut windows);
+        }
+    }
+    (b.build(Pose2::new(-0.64, -0.42, FRAC_PI_2)), windows)
 }
 
 /// The built-in scripts (`ratf drive --script`).

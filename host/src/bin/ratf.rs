@@ -63,6 +63,32 @@ enum Command {
         130  stopped by Ctrl-C or SIGTERM\n\
         On every way out the Mega gets zero references and magnet off first.")]
     Run(RunArgs),
+    /// Calibrate the lidar (range scale and offset, mount yaw) and the beacons' layout from a
+    /// 35 s drive with nine stops, in the simulator for now: the drawn world's truth is
+    /// printed beside the fit. `--write FILE` saves the calibrated configuration.
+    Calibrate(CalibrateArgs),
+}
+
+#[derive(Debug, Args)]
+struct CalibrateArgs {
+    /// Configuration file (defaults: the competition robot): the robot's beliefs before
+    /// calibrating, from which the world is drawn.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Simulator seed (the world's draws).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// How the simulated world departs from the configuration (default: the
+    /// configuration's `[sim] world`).
+    #[arg(long, value_enum)]
+    world: Option<WorldProfile>,
+    /// Without the six pole-to-pole tape measures (the range scale then
+    /// rests on the odometry and the nominal layout).
+    #[arg(long)]
+    no_tape: bool,
+    /// Write the calibrated configuration to this file.
+    #[arg(long, value_name = "FILE")]
+    write: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -108,6 +134,21 @@ enum BenchCommand {
     /// Our localiser and the original filter side by side on a tour of the floor, with the
     /// default noise and with faults: RMSE, largest error, NEES, divergences.
     Localisation(LocBenchArgs),
+    /// `ratf calibrate` over many seeds: each quantity's error against the drawn truth,
+    /// mean and worst, and before calibration.
+    Calibration(CalibrationBenchArgs),
+}
+
+#[derive(Debug, Args)]
+struct CalibrationBenchArgs {
+    #[command(flatten)]
+    bench: BenchArgs,
+    /// The first seed (runs use first-seed .. first-seed + seeds − 1).
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
+    /// Without the tape measures.
+    #[arg(long)]
+    no_tape: bool,
 }
 
 #[derive(Debug, Args)]
@@ -138,6 +179,10 @@ struct RoundsBenchArgs {
     /// Machine processing time, s.
     #[arg(long, default_value_t = 0.0)]
     machine_delay_s: f64,
+    /// Calibrate each seed's world first (the calibration drive with tape measures) and
+    /// run both policies with the calibrated configuration.
+    #[arg(long)]
+    calibrated: bool,
 }
 
 impl BenchArgs {
@@ -292,6 +337,8 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
         Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
+        Command::Bench(BenchCommand::Calibration(args)) => calibration_bench_command(&args)?,
+        Command::Calibrate(args) => calibrate_command(&args)?,
         Command::Replay(args) => replay_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
@@ -934,16 +981,30 @@ fn color_name(color: ratf_core::field::PartColor) -> &'static str {
 fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::round;
     let config = args.bench.config()?;
-    println!("world: {}", config.sim.world);
+    println!(
+        "world: {}{}",
+        config.sim.world,
+        if args.calibrated {
+            ", each seed calibrated first (ratf calibrate, with tape)"
+        } else {
+            ""
+        }
+    );
     let started = Instant::now();
     let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
     println!("seeds {} to {}", seeds.start(), seeds.end());
-    let rows = round::bench(&config, seeds.clone(), args.machine_delay_s, |r| {
-        eprintln!(
-            "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
-            r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
-        );
-    })?;
+    let rows = round::bench(
+        &config,
+        seeds.clone(),
+        args.machine_delay_s,
+        args.calibrated,
+        |r| {
+            eprintln!(
+                "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
+                r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
+            );
+        },
+    )?;
     println!(
         "{:<6} {:<9} {:>10} {:>10} {:>10} {:>11} {:>9} {:>5}",
         "round", "policy", "full score", "mean s", "max s", "collisions", "given up", "runs"
@@ -972,8 +1033,134 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
             "{}",
             serde_json::json!({
                 "world": config.sim.world,
+                "calibrated": args.calibrated,
                 "seeds": [seeds.start(), seeds.end()],
                 "rounds": rows
+            })
+        );
+    }
+    Ok(())
+}
+
+fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
+    use ratf_host::apps::calibrate;
+    let mut config = load_config(args.config.as_deref())?;
+    config.sim.seed = args.seed;
+    if let Some(world) = args.world {
+        config.sim.world = world;
+    }
+    let run = calibrate::run_in_sim(&config, !args.no_tape)?;
+    println!("{}", run.truth);
+    let fit = &run.calibration;
+    let e = &run.errors;
+    println!(
+        "{} stops over {:.1} s, {} collisions; residual RMS {:.2} σ, {} iterations",
+        run.stops, run.sim_s, run.collisions, fit.residual_rms, fit.iterations
+    );
+    println!(
+        "range scale   {:.5} ± {:.5}   (truth {:.5}; error {:+.3} %)",
+        fit.range_scale, fit.range_scale_std, run.truth.lidar_range_scale, e.range_scale_pct
+    );
+    println!(
+        "range offset  {:+.1} ± {:.1} mm  (truth {:+.1} mm; error {:+.1} mm)",
+        fit.range_offset_m * 1e3,
+        fit.range_offset_std_m * 1e3,
+        run.truth.lidar_range_offset_m * 1e3,
+        e.range_offset_mm
+    );
+    println!(
+        "mount yaw     {:.2}° ± {:.2}°  (error {:+.2}°; before calibrating {:+.2}°)",
+        fit.mount_yaw_rad.to_degrees(),
+        fit.mount_yaw_std_rad.to_degrees(),
+        e.mount_yaw_deg,
+        e.uncalibrated_mount_yaw_deg
+    );
+    for (i, (b, std)) in fit.beacons.iter().zip(&fit.beacon_std_m).enumerate() {
+        println!(
+            "beacon {i}      ({:+.4}, {:+.4}) m ± {:.1} mm",
+            b.x,
+            b.y,
+            std * 1e3
+        );
+    }
+    println!(
+        "beacons: largest error {:.1} mm (before: {:.1} mm); pole-to-pole distances within \
+         {:.1} mm",
+        e.beacon_max_mm, e.uncalibrated_beacon_max_mm, e.beacon_layout_max_mm
+    );
+    if let Some(path) = &args.write {
+        let mut calibrated = config.clone();
+        fit.apply(&mut calibrated);
+        let text = calibrated.to_toml_string()?;
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        println!("wrote the calibrated configuration to {}", path.display());
+    }
+    Ok(())
+}
+
+fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> {
+    use ratf_host::apps::calibrate::{self, CalibrationSummary};
+    let config = args.bench.config()?;
+    let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
+    println!(
+        "world: {}; seeds {} to {}; {}",
+        config.sim.world,
+        seeds.start(),
+        seeds.end(),
+        if args.no_tape {
+            "no tape"
+        } else {
+            "with the six pole-to-pole tape measures"
+        }
+    );
+    let started = Instant::now();
+    let mut runs = Vec::new();
+    for seed in seeds.clone() {
+        let mut seeded = config.clone();
+        seeded.sim.seed = seed;
+        let run = calibrate::run_in_sim(&seeded, !args.no_tape)?;
+        let e = &run.errors;
+        eprintln!(
+            "seed {seed}: scale {:+.3} %, offset {:+.1} mm, yaw {:+.3}° (was {:+.2}°), \
+             beacons {:.1} mm (layout {:.1} mm), {} collisions",
+            e.range_scale_pct,
+            e.range_offset_mm,
+            e.mount_yaw_deg,
+            e.uncalibrated_mount_yaw_deg,
+            e.beacon_max_mm,
+            e.beacon_layout_max_mm,
+            run.collisions
+        );
+        runs.push(run);
+    }
+    let s = CalibrationSummary::of(&runs);
+    println!("{:<28} {:>10} {:>10}", "|error|", "mean", "worst");
+    let rows: [(&str, [f64; 2]); 7] = [
+        ("range scale, %", s.range_scale_pct),
+        ("range offset, mm", s.range_offset_mm),
+        ("mount yaw, °", s.mount_yaw_deg),
+        ("beacon centre, mm", s.beacon_max_mm),
+        ("pole-to-pole, mm", s.beacon_layout_max_mm),
+        ("mount yaw uncalibrated, °", s.uncalibrated_mount_yaw_deg),
+        ("beacon uncalibrated, mm", s.uncalibrated_beacon_max_mm),
+    ];
+    for (name, [mean, worst]) in rows {
+        println!("{name:<28} {mean:>10.3} {worst:>10.3}");
+    }
+    let collisions: u32 = runs.iter().map(|r| r.collisions).sum();
+    println!(
+        "{} runs, {collisions} collisions, {:.1} s wall",
+        s.runs,
+        started.elapsed().as_secs_f64()
+    );
+    if args.bench.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "world": config.sim.world,
+                "seeds": [seeds.start(), seeds.end()],
+                "tape": !args.no_tape,
+                "summary": s,
             })
         );
     }

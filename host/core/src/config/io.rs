@@ -19,6 +19,13 @@ pub struct LidarConfig {
     pub min_range_m: f64,
     /// Longest valid range, m. 10: datasheet and original `dist_max` (§1.3).
     pub max_range_m: f64,
+    /// The lidar's range scale: it reads `range_scale × true + range_offset_m`. 1: nominal;
+    /// the X4's datasheet allows about ±1.5 % (real-world-errors.md); `ratf calibrate`
+    /// measures it.
+    pub range_scale: f64,
+    /// The lidar's range offset, m (see `range_scale`). 0: nominal; the datasheet allows
+    /// about ±10 mm.
+    pub range_offset_m: f64,
 }
 
 impl Default for LidarConfig {
@@ -29,12 +36,22 @@ impl Default for LidarConfig {
             range_noise_std_m: 0.01,
             min_range_m: 0.12,
             max_range_m: 10.0,
+            range_scale: 1.0,
+            range_offset_m: 0.0,
         }
     }
 }
 
 impl LidarConfig {
+    /// The true range of a reading `raw_m`, m: the calibration (`range_scale`,
+    /// `range_offset_m`) undone.
+    pub fn corrected_range_m(&self, raw_m: f64) -> f64 {
+        (raw_m - self.range_offset_m) / self.range_scale
+    }
+
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
+        c.within("range_scale", self.range_scale, 0.9, 1.1);
+        c.within("range_offset_m", self.range_offset_m, -0.1, 0.1);
         c.positive("scan_rate_hz", self.scan_rate_hz);
         c.within("angle_step_deg", self.angle_step_deg, 0.01, 90.0);
         c.non_negative("range_noise_std_m", self.range_noise_std_m);

@@ -1,0 +1,290 @@
+//! A stop's sightings: the poles' centres found in each still scan, averaged per beacon.
+
+use std::collections::BTreeMap;
+
+use crate::config::Config;
+use crate::drivers::x4::scan::Scan;
+use crate::field::Field;
+use crate::field::geometry::{Pose2, Vec2};
+use crate::localisation::beacons::{self, Expected};
+
+/// Search radius around each beacon's predicted centre, m. Generous because, before
+/// calibration, a 3° mount error puts a pole 2 m away 10 cm from where it is expected;
+/// the poles stand at least 0.2 m apart (`[field] beacons_m` is checked for it) and
+/// nothing else reaches the scan plane on a competition floor.
+pub const SEARCH_RADIUS_M: f64 = 0.15;
+
+/// Still scans a stop needs, and scans a ray's bin must have a range in to count.
+pub const MIN_SCANS: usize = 3;
+
+/// Floor of a sighting's range standard deviation, m: what averaging cannot remove (the
+/// pole's own roundness and the lidar's range quantisation, about 1 mm).
+const RANGE_STD_FLOOR_M: f64 = 0.001;
+
+/// Floor of a sighting's bearing standard deviation, rad (0.05°, a tenth of the X4's ray
+/// spacing).
+const BEARING_STD_FLOOR_RAD: f64 = 0.05 * std::f64::consts::PI / 180.0;
+
+/// The sample median's standard error over the mean's, for normal noise (√(π/2)).
+const MEDIAN_EFFICIENCY: f64 = 1.2533;
+
+/// One beacon seen from one stop: its centre averaged over the stop's scans, in the
+/// lidar's own frame with the lidar's raw ranges (the range calibration not applied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sighting {
+    /// Which beacon (index into the field's beacons).
+    pub beacon: usize,
+    /// Distance from the lidar's origin to the centre, m.
+    pub range_m: f64,
+    /// Bearing of the centre, rad, counter-clockwise from the lidar's zero angle.
+    pub bearing_rad: f64,
+    /// Standard deviation of `range_m` (from the pole's fit in the stop's quiet scan,
+    /// floored), m.
+    pub range_std_m: f64,
+    /// Standard deviation of `bearing_rad` (likewise), rad.
+    pub bearing_std_rad: f64,
+    /// Still scans the stop's quiet scan was made from.
+    pub scans: usize,
+}
+
+/// What the robot saw and believed at one stop.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stop {
+    /// The wheel odometry's pose there (its own frame; only differences between stops are
+    /// used).
+    pub odometry: Pose2,
+    /// The localiser's pose there, with the configuration's calibration: the fit's start.
+    pub estimate: Pose2,
+    /// The beacons found in the stop's quiet scan.
+    pub sightings: Vec<Sighting>,
+}
+
+/// Collects one stop's scans: per ray direction (binned at the lidar's angle step), the
+/// ranges of every still scan; at the end, their medians make one quiet scan in which the
+/// poles are found as the localiser finds them (a tenth of the noise after ten scans, so a
+/// noisy lidar still shows round poles).
+#[derive(Clone, Debug)]
+pub struct StopRecorder {
+    expected: Vec<Expected>,
+    step_rad: f64,
+    radius_m: f64,
+    config: crate::config::LocalisationConfig,
+    bins: BTreeMap<i64, Bin>,
+    scans: usize,
+}
+
+impl StopRecorder {
+    /// A recorder for a stop where the robot believes it stands at `estimate`, with the
+    /// lidar mount and the beacons of `config` and `field`.
+    pub fn new(config: &Config, field: &Field, estimate: Pose2) -> Self {
+        let robot = &config.robot;
+        let mount = Pose2::new(
+            robot.lidar_x_m,
+            robot.lidar_y_m,
+            robot.lidar_yaw_deg.to_radians(),
+        );
+        let lidar = estimate.compose(mount);
+        let expected = field
+            .beacons()
+            .iter()
+            .map(|b| Expected {
+                beacon: b.index,
+                centre: lidar.inverse_transform_point(b.circle.center),
+                search_radius_m: SEARCH_RADIUS_M,
+            })
+            .collect();
+        Self {
+            expected,
+            step_rad: config.lidar.angle_step_deg.to_radians(),
+            radius_m: field.beacons()[0].circle.radius_m,
+            config: config.localisation.clone(),
+            bins: BTreeMap::new(),
+            scans: 0,
+        }
+    }
+
+    /// Add a scan taken while the robot stood still.
+    pub fn add_scan(&mut self, scan: &Scan) {
+        self.scans += 1;
+        for p in &scan.points {
+            let bin = (p.angle_rad / self.step_rad).round() as i64;
+            let bin = self.bins.entry(bin).or_default();
+            bin.ranges.push(p.range_m);
+            bin.angle_sum_rad += p.angle_rad;
+        }
+    }
+
+    /// The stop: a sighting per beacon found in the stop's quiet scan, with the odometry's
+    /// and the localiser's poses there (no sightings with fewer than [`MIN_SCANS`] scans).
+    pub fn finish(self, odometry: Pose2, estimate: Pose2) -> Stop {
+        let mut stop = Stop {
+            odometry,
+            estimate,
+            sightings: Vec::new(),
+        };
+        if self.scans < MIN_SCANS {
+            return stop;
+        }
+        let quorum = MIN_SCANS.max(self.scans / 2);
+        let mut points = Vec::new();
+        let (mut spread_sum, mut spread_bins) = (0.0, 0usize);
+        for bin in self.bins.values() {
+            let ranges = &bin.ranges;
+            if ranges.len() < quorum {
+                continue;
+            }
+            let median = median(ranges);
+            let n = ranges.len() as f64;
+            let variance = ranges.iter().map(|r| (r - median).powi(2)).sum::<f64>() / (n - 1.0);
+            spread_sum += variance / n;
+            spread_bins += 1;
+            points.push(Vec2::from_angle(bin.angle_sum_rad / n) * median);
+        }
+        // The noise left on each median range, pooled over the rays.
+        let median_std_m = (spread_sum / spread_bins.max(1) as f64).sqrt() * MEDIAN_EFFICIENCY;
+        let mut config = self.config.clone();
+        config.range_noise_std_m = median_std_m.max(RANGE_STD_FLOOR_M);
+        let found = beacons::extract(
+            &points,
+            &[],
+            &self.expected,
+            self.step_rad,
+            self.radius_m,
+            &config,
+        );
+        for (expected, clusters) in self.expected.iter().zip(found) {
+            let nearest = clusters.candidates.iter().min_by(|a, b| {
+                let da = centre_of(a.range_m, a.bearing_rad).distance(expected.centre);
+                let db = centre_of(b.range_m, b.bearing_rad).distance(expected.centre);
+                da.total_cmp(&db)
+            });
+            if let Some(obs) = nearest {
+                stop.sightings.push(Sighting {
+                    beacon: expected.beacon,
+                    range_m: obs.range_m,
+                    bearing_rad: obs.bearing_rad,
+                    range_std_m: obs.covariance[(0, 0)].sqrt().max(RANGE_STD_FLOOR_M),
+                    bearing_std_rad: obs.covariance[(1, 1)].sqrt().max(BEARING_STD_FLOOR_RAD),
+                    scans: self.scans,
+                });
+            }
+        }
+        stop
+    }
+}
+
+/// The ranges read along one ray direction over a stop's scans, and their angles' sum (the
+/// X4's rays do not repeat exactly from one revolution to the next: a range is placed at its
+/// rays' mean angle, not at the bin's nominal one, which would bend a pole's outline).
+#[derive(Clone, Debug, Default)]
+struct Bin {
+    ranges: Vec<f64>,
+    angle_sum_rad: f64,
+}
+
+fn centre_of(range_m: f64, bearing_rad: f64) -> Vec2 {
+    Vec2::from_angle(bearing_rad) * range_m
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let mid = sorted.len() / 2;
+    if sorted.len().is_multiple_of(2) {
+        (sorted[mid - 1] + sorted[mid]) / 2.0
+    } else {
+        sorted[mid]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::drivers::x4::scan::ScanPoint;
+    use crate::rng::SimRng;
+
+    /// A still scan of the field's poles from `lidar` (world pose), rays every `step`, range
+    /// noise σ `noise_m`, read as `scale × true + offset`.
+    fn scan(field: &Field, lidar: Pose2, step: f64, noise_m: f64, rng: &mut SimRng) -> Scan {
+        let rays = (std::f64::consts::TAU / step).round() as i64;
+        let points = (0..rays)
+            .filter_map(|i| {
+                let angle = -std::f64::consts::PI + i as f64 * step;
+                let direction = Vec2::from_angle(lidar.yaw_rad + angle);
+                let origin = lidar.position();
+                field.beacons().iter().find_map(|b| {
+                    let to_centre = b.circle.center - origin;
+                    let along = to_centre.dot(direction);
+                    let miss2 = to_centre.dot(to_centre) - along * along;
+                    let r2 = b.circle.radius_m * b.circle.radius_m;
+                    (along > 0.0 && miss2 < r2).then(|| ScanPoint {
+                        angle_rad: angle,
+                        range_m: along - (r2 - miss2).sqrt() + rng.normal(noise_m),
+                        time_offset_us: 0.0,
+                    })
+                })
+            })
+            .collect();
+        Scan {
+            stamp_us: 0.0,
+            sample_period_us: 0.0,
+            scan_frequency_hz: 7.0,
+            points,
+            samples: rays as u32,
+            points_out_of_range: 0,
+            points_overflowed: 0,
+            packets_dropped: 0,
+        }
+    }
+
+    #[test]
+    fn a_noisy_lidar_still_sees_every_pole_at_its_centre_after_ten_scans() {
+        let config = Config::default();
+        let field = Field::competition();
+        let robot = Pose2::new(-0.64, -0.2, 1.5);
+        let mount = Pose2::new(
+            config.robot.lidar_x_m,
+            config.robot.lidar_y_m,
+            config.robot.lidar_yaw_deg.to_radians(),
+        );
+        let lidar = robot.compose(mount);
+        let mut rng = SimRng::new(7);
+        // 25 mm of noise: twice the harsh world's at 2 m; one scan of it breaks the poles'
+        // circle fits.
+        let mut recorder = StopRecorder::new(&config, &field, robot);
+        let step = config.lidar.angle_step_deg.to_radians();
+        for _ in 0..10 {
+            recorder.add_scan(&scan(&field, lidar, step, 0.025, &mut rng));
+        }
+        let stop = recorder.finish(robot, robot);
+        assert_eq!(stop.sightings.len(), 4, "{stop:?}");
+        for s in &stop.sightings {
+            let truth = lidar.inverse_transform_point(field.beacons()[s.beacon].circle.center);
+            let seen = centre_of(s.range_m, s.bearing_rad);
+            assert!(
+                seen.distance(truth) < 0.015,
+                "beacon {}: {seen:?} vs {truth:?}",
+                s.beacon
+            );
+            assert!(s.range_std_m >= RANGE_STD_FLOOR_M && s.scans == 10);
+        }
+    }
+
+    #[test]
+    fn too_few_scans_give_no_sightings() {
+        let config = Config::default();
+        let field = Field::competition();
+        let robot = Pose2::new(-0.64, -0.2, 1.5);
+        let mut recorder = StopRecorder::new(&config, &field, robot);
+        let mut rng = SimRng::new(1);
+        let step = config.lidar.angle_step_deg.to_radians();
+        recorder.add_scan(&scan(&field, robot, step, 0.0, &mut rng));
+        assert!(recorder.finish(robot, robot).sightings.is_empty());
+    }
+
+    #[test]
+    fn the_median_of_an_even_count_is_the_middle_pair_s_mean() {
+        assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+    }
+}

@@ -1,0 +1,269 @@
+//! `ratf calibrate` in the simulator: drive the calibration drive in a drawn world, fit the
+//! lidar's range scale and offset, its mount yaw and the beacons
+//! ([`ratf_core::calibration`]), and compare the fit with the world's truth, which the
+//! robot never sees.
+//!
+//! The world is built from the configuration the team wrote before calibrating (its
+//! beliefs) plus the drawn errors; the calibration changes only the robot's beliefs, so
+//! a round run after it (`ratf bench rounds --calibrated`) is in the same world.
+
+use serde::Serialize;
+
+use crate::apps::scripts::{StopWindow, calibration_drive};
+use ratf_core::calibration::{
+    self, Calibration, CalibrationError, Priors, StopRecorder, TapeMeasure,
+};
+use ratf_core::config::{Config, WorldProfile};
+use ratf_core::drivers::imu::ImuError;
+use ratf_core::field::geometry::{Vec2, wrap_angle};
+use ratf_core::rng::SimRng;
+use ratf_core::runtime::Input;
+use ratf_sim::harness::SimulatedRobot;
+use ratf_sim::truth::WorldTruth;
+use ratf_sim::world::Scenario;
+
+/// The tape measures a team takes on the day, in the simulator: the distance between every
+/// two poles (the four sides and both diagonals of their quadrilateral, which make the
+/// layout rigid).
+const TAPED_SIDES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// Why the simulated calibration failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibrateError {
+    /// The simulated IMU could not be brought up.
+    #[error("simulated IMU: {0}")]
+    Imu(#[from] ImuError),
+    /// The drive's data could not be fitted.
+    #[error("calibration: {0}")]
+    Fit(#[from] CalibrationError),
+}
+
+/// The fit against the truth, in the units a team reads.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CalibrationErrors {
+    /// Fitted range scale minus the true one, per cent.
+    pub range_scale_pct: f64,
+    /// Fitted range offset minus the true one, mm.
+    pub range_offset_mm: f64,
+    /// Fitted mount yaw minus the true one, degrees.
+    pub mount_yaw_deg: f64,
+    /// Largest distance of a fitted beacon centre from the true one, mm.
+    pub beacon_max_mm: f64,
+    /// Largest error of a fitted pole-to-pole distance (the layout, whatever the frame), mm.
+    pub beacon_layout_max_mm: f64,
+    /// The same before calibration: the believed mount yaw minus the true one, degrees.
+    pub uncalibrated_mount_yaw_deg: f64,
+    /// Largest distance of a believed beacon centre from the true one, mm.
+    pub uncalibrated_beacon_max_mm: f64,
+}
+
+/// One simulated calibration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimCalibration {
+    /// The simulator's seed.
+    pub seed: u64,
+    /// The world profile.
+    pub world: WorldProfile,
+    /// The fit.
+    pub calibration: Calibration,
+    /// The world's truth.
+    pub truth: WorldTruth,
+    /// The fit against it.
+    pub errors: CalibrationErrors,
+    /// Stops recorded.
+    pub stops: usize,
+    /// Collisions during the drive.
+    pub collisions: u32,
+    /// Simulated time, s.
+    pub sim_s: f64,
+}
+
+/// Drive the calibration drive in the world of `config` (its `[sim] seed` and `world`),
+/// fit, and compare with the truth; with `tape`, the team also measured the distance
+/// between every two poles (to the truth, with the tape's σ).
+pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, CalibrateError> {
+    let (script, windows) = calibration_drive();
+    let scenario = Scenario {
+        start_pose: script.start,
+        ..Scenario::new(config)
+    };
+    let mut sim = SimulatedRobot::new(config, &scenario, script.start)?;
+    let field = config.field.field();
+    let end_us = ((script.duration_s() + 0.1) * 1e6) as u64;
+    let mut stops = Vec::new();
+    let mut scans: Vec<Vec<ratf_core::drivers::x4::scan::Scan>> = vec![Vec::new(); windows.len()];
+    let mut poses = vec![None; windows.len()];
+    let mut next_stop = 0;
+    while sim.now_us() < end_us {
+        sim.step_observed(
+            |robot, now_us| robot.command_motion(script.twist_at(now_us as f64 * 1e-6)),
+            |stamped| {
+                if let Input::Scan(scan) = &stamped.input
+                    && let Some(k) = still_window(&windows, scan)
+                {
+                    scans[k].push(scan.clone());
+                }
+            },
+        )?;
+        let now_s = sim.now_us() as f64 * 1e-6;
+        for (k, window) in windows.iter().enumerate() {
+            if poses[k].is_none() && now_s >= window.start_s + SETTLE_S {
+                let robot = sim.robot();
+                poses[k] = Some((robot.estimation().odometry_pose(), robot.pose()));
+            }
+        }
+        while next_stop < windows.len() && now_s >= windows[next_stop].end_s {
+            if let Some((odometry, estimate)) = poses[next_stop] {
+                let mut recorder = StopRecorder::new(config, &field, estimate);
+                for scan in &scans[next_stop] {
+                    recorder.add_scan(scan);
+                }
+                stops.push(recorder.finish(odometry, estimate));
+            }
+            next_stop += 1;
+        }
+    }
+    let truth = sim.world().truth().clone();
+    let true_field = truth.true_field(config);
+    let true_beacons: Vec<Vec2> = true_field
+        .beacons()
+        .iter()
+        .map(|b| b.circle.center)
+        .collect();
+    let mut priors = Priors::from_config(config, &field);
+    if tape {
+        let mut rng = SimRng::new(config.sim.seed).fork("tape");
+        priors.tape = TAPED_SIDES
+            .iter()
+            .map(|&(from, to)| TapeMeasure {
+                from,
+                to,
+                distance_m: true_beacons[from].distance(true_beacons[to])
+                    + rng.normal(priors.tape_sigma_m),
+            })
+            .collect();
+    }
+    let fit = calibration::solve(&stops, &priors)?;
+    let true_yaw = (config.robot.lidar_yaw_deg + truth.lidar_yaw_error_deg).to_radians();
+    let believed_beacons: Vec<Vec2> = field.beacons().iter().map(|b| b.circle.center).collect();
+    let errors = CalibrationErrors {
+        range_scale_pct: (fit.range_scale - truth.lidar_range_scale) * 100.0,
+        range_offset_mm: (fit.range_offset_m - truth.lidar_range_offset_m) * 1e3,
+        mount_yaw_deg: wrap_angle(fit.mount_yaw_rad - true_yaw).to_degrees(),
+        beacon_max_mm: max_distance(&fit.beacons, &true_beacons) * 1e3,
+        beacon_layout_max_mm: layout_error(&fit.beacons, &true_beacons) * 1e3,
+        uncalibrated_mount_yaw_deg: -truth.lidar_yaw_error_deg,
+        uncalibrated_beacon_max_mm: max_distance(&believed_beacons, &true_beacons) * 1e3,
+    };
+    Ok(SimCalibration {
+        seed: config.sim.seed,
+        world: config.sim.world,
+        calibration: fit,
+        errors,
+        stops: stops.len(),
+        collisions: sim.world().stats().collisions,
+        sim_s: sim.now_us() as f64 * 1e-6,
+        truth,
+    })
+}
+
+/// Time after a stop begins for the robot to come to rest, s (the legs' 0.3 s ramp and
+/// the wheels' settling).
+const SETTLE_S: f64 = 0.5;
+
+/// The stop window a scan lies wholly in (after the settling time), if any.
+fn still_window(
+    windows: &[StopWindow],
+    scan: &ratf_core::drivers::x4::scan::Scan,
+) -> Option<usize> {
+    let start_s = scan.stamp_us * 1e-6;
+    let span_s = scan.sample_period_us * f64::from(scan.samples) * 1e-6;
+    windows
+        .iter()
+        .position(|w| start_s >= w.start_s + SETTLE_S && start_s + span_s <= w.end_s)
+}
+
+fn max_distance(a: &[Vec2], b: &[Vec2]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| p.distance(*q))
+        .fold(0.0, f64::max)
+}
+
+fn layout_error(fitted: &[Vec2], truth: &[Vec2]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for i in 0..fitted.len() {
+        for j in i + 1..fitted.len() {
+            let error = fitted[i].distance(fitted[j]) - truth[i].distance(truth[j]);
+            worst = worst.max(error.abs());
+        }
+    }
+    worst
+}
+
+/// The spread of calibrations over many seeds: mean |error| and worst |error| per
+/// quantity.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct CalibrationSummary {
+    /// Runs.
+    pub runs: usize,
+    /// Mean and worst |range scale error|, per cent.
+    pub range_scale_pct: [f64; 2],
+    /// Mean and worst |range offset error|, mm.
+    pub range_offset_mm: [f64; 2],
+    /// Mean and worst |mount yaw error|, degrees.
+    pub mount_yaw_deg: [f64; 2],
+    /// Mean and worst largest beacon error, mm.
+    pub beacon_max_mm: [f64; 2],
+    /// Mean and worst pole-to-pole distance error, mm.
+    pub beacon_layout_max_mm: [f64; 2],
+    /// Mean and worst |mount yaw error| before calibration, degrees.
+    pub uncalibrated_mount_yaw_deg: [f64; 2],
+    /// Mean and worst largest beacon error before calibration, mm.
+    pub uncalibrated_beacon_max_mm: [f64; 2],
+}
+
+impl CalibrationSummary {
+    /// The summary of `runs`.
+    pub fn of(runs: &[SimCalibration]) -> Self {
+        let stat = |f: &dyn Fn(&CalibrationErrors) -> f64| {
+            let values: Vec<f64> = runs.iter().map(|r| f(&r.errors).abs()).collect();
+            let n = values.len().max(1) as f64;
+            [
+                values.iter().sum::<f64>() / n,
+                values.iter().copied().fold(0.0, f64::max),
+            ]
+        };
+        Self {
+            runs: runs.len(),
+            range_scale_pct: stat(&|e| e.range_scale_pct),
+            range_offset_mm: stat(&|e| e.range_offset_mm),
+            mount_yaw_deg: stat(&|e| e.mount_yaw_deg),
+            beacon_max_mm: stat(&|e| e.beacon_max_mm),
+            beacon_layout_max_mm: stat(&|e| e.beacon_layout_max_mm),
+            uncalibrated_mount_yaw_deg: stat(&|e| e.uncalibrated_mount_yaw_deg),
+            uncalibrated_beacon_max_mm: stat(&|e| e.uncalibrated_beacon_max_mm),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_calibration_drive_is_collision_free_and_recovers_the_mount_yaw_in_the_realistic_world() {
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Realistic;
+        config.sim.seed = 3;
+        let run = run_in_sim(&config, true).unwrap();
+        assert_eq!(run.collisions, 0);
+        assert_eq!(run.stops, 9);
+        assert!(
+            run.errors.mount_yaw_deg.abs() < 0.3,
+            "{:?} vs before {}",
+            run.errors,
+            run.errors.uncalibrated_mount_yaw_deg
+        );
+    }
+}
