@@ -167,6 +167,28 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
     })
 }
 
+/// What the robot believes in the world of `config` (its `[sim] seed`): with `calibrate`,
+/// the configuration after the calibration drive (with the tape measures); when the fit is
+/// refused, the configuration as written, as on the day for a team with no time to drive
+/// again, and the refusal beside it.
+pub fn beliefs(
+    config: &Config,
+    calibrate: bool,
+) -> Result<(Config, Option<CalibrationError>), CalibrateError> {
+    let mut beliefs = config.clone();
+    if !calibrate {
+        return Ok((beliefs, None));
+    }
+    match run_in_sim(config, true) {
+        Ok(run) => {
+            run.calibration.apply(&mut beliefs);
+            Ok((beliefs, None))
+        }
+        Err(CalibrateError::Fit(refused)) => Ok((beliefs, Some(refused))),
+        Err(other) => Err(other),
+    }
+}
+
 /// Time after a stop begins for the robot to come to rest, s (the legs' 0.3 s ramp and
 /// the wheels' settling).
 const SETTLE_S: f64 = 0.5;

@@ -200,6 +200,10 @@ impl BenchArgs {
 struct LocBenchArgs {
     #[command(flatten)]
     bench: BenchArgs,
+    /// Calibrate each seed's world first (the calibration drive with tape measures) and
+    /// run both estimators with the calibrated configuration.
+    #[arg(long)]
+    calibrated: bool,
 }
 
 #[derive(Debug, Args)]
@@ -686,16 +690,29 @@ fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Result<()> {
+fn loc_bench_command(
+    LocBenchArgs {
+        bench: args,
+        calibrated,
+    }: &LocBenchArgs,
+) -> anyhow::Result<()> {
     use ratf_host::apps::loc_bench::{self, Metrics, nees_band};
     let config = args.config()?;
     let started = Instant::now();
-    let figures = loc_bench::run(&config, args.seeds, |condition, seed, ours, original| {
-        eprintln!(
-            "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
-            ours.pos_rmse_m, original.pos_rmse_m
-        );
-    })?;
+    if *calibrated {
+        println!("each seed calibrated first (ratf calibrate, with tape)");
+    }
+    let figures = loc_bench::run(
+        &config,
+        args.seeds,
+        *calibrated,
+        |condition, seed, ours, original| {
+            eprintln!(
+                "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
+                ours.pos_rmse_m, original.pos_rmse_m
+            );
+        },
+    )?;
     let row = |name: &str, condition: &str, m: &Metrics| {
         println!(
             "{name:<9} {condition:<8} {:>10.4} {:>12.3} {:>11.4} {:>9.2} {:>11} {:>5}",
@@ -717,6 +734,12 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
     row("ours", "faults", &figures.ours.faults);
     row("original", "default", &figures.original.default);
     row("original", "faults", &figures.original.faults);
+    if *calibrated {
+        println!(
+            "calibrations refused: {} (those runs use the configuration as written)",
+            figures.calibrations_refused
+        );
+    }
     let (lo, hi) = nees_band(3, args.seeds as u32);
     println!(
         "scored after the first 2 s; divergence: > 0.05 m after 2 s; consistent NEES (3 dof, \
@@ -732,6 +755,7 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
             }
         }
         value["world"] = serde_json::json!(config.sim.world);
+        value["calibrated"] = serde_json::json!(calibrated);
         println!("{value}");
     }
     Ok(())
@@ -993,18 +1017,30 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
     println!("seeds {} to {}", seeds.start(), seeds.end());
+    let mut refused = 0u32;
     let rows = round::bench(
         &config,
         seeds.clone(),
         args.machine_delay_s,
         args.calibrated,
-        |r| {
-            eprintln!(
+        |progress| match progress {
+            round::BenchProgress::CalibrationRefused { seed, error } => {
+                refused += 1;
+                eprintln!(
+                    "seed {seed}: calibration refused, the robot keeps its configuration: {error}"
+                );
+            }
+            round::BenchProgress::Run(r) => eprintln!(
                 "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
                 r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
-            );
+            ),
         },
     )?;
+    if args.calibrated {
+        println!(
+            "calibrations refused: {refused} (those robots keep the configuration as written)"
+        );
+    }
     println!(
         "{:<6} {:<9} {:>10} {:>10} {:>10} {:>11} {:>9} {:>5}",
         "round", "policy", "full score", "mean s", "max s", "collisions", "given up", "runs"
@@ -1034,6 +1070,7 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
             serde_json::json!({
                 "world": config.sim.world,
                 "calibrated": args.calibrated,
+                "calibrations_refused": refused,
                 "seeds": [seeds.start(), seeds.end()],
                 "rounds": rows
             })
@@ -1115,10 +1152,19 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
     );
     let started = Instant::now();
     let mut runs = Vec::new();
+    let mut refused = Vec::new();
     for seed in seeds.clone() {
         let mut seeded = config.clone();
         seeded.sim.seed = seed;
-        let run = calibrate::run_in_sim(&seeded, !args.no_tape)?;
+        let run = match calibrate::run_in_sim(&seeded, !args.no_tape) {
+            Ok(run) => run,
+            Err(calibrate::CalibrateError::Fit(error)) => {
+                eprintln!("seed {seed}: refused: {error}");
+                refused.push(seed);
+                continue;
+            }
+            Err(other) => return Err(other.into()),
+        };
         let e = &run.errors;
         eprintln!(
             "seed {seed}: scale {:+.3} %, offset {:+.1} mm, yaw {:+.3}° (was {:+.2}°), \
@@ -1149,8 +1195,9 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
     }
     let collisions: u32 = runs.iter().map(|r| r.collisions).sum();
     println!(
-        "{} runs, {collisions} collisions, {:.1} s wall",
+        "{} fits, {} refused (seeds {refused:?}), {collisions} collisions, {:.1} s wall",
         s.runs,
+        refused.len(),
         started.elapsed().as_secs_f64()
     );
     if args.bench.json {
@@ -1161,6 +1208,7 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
                 "seeds": [seeds.start(), seeds.end()],
                 "tape": !args.no_tape,
                 "summary": s,
+                "refused_seeds": refused,
             })
         );
     }
