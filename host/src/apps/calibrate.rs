@@ -288,4 +288,16 @@ mod tests {
             run.errors.uncalibrated_mount_yaw_deg
         );
     }
+
+    #[test]
+    fn the_calibration_drive_clears_machine_a_when_the_strafe_falls_short() {
+        // Harsh seed 31: strafe ×0.85; a 0.59 m right leg touched machine A's dividers
+        // three times.
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Harsh;
+        config.sim.seed = 31;
+        let run = run_in_sim(&config, true).unwrap();
+        assert!(run.truth.lateral_factor < 0.9, "{}", run.truth);
+        assert_eq!(run.collisions, 0);
+    }
 }
