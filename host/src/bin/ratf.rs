@@ -68,11 +68,11 @@ enum Command {
     /// gyro bias, the server), then each wheel turned open loop in turn and the magnet
     /// toggled; one summary line per device.
     #[command(after_help = "Exit codes:\n  \
-        0    every device ok\n  \
+        0    every device checked is ok (steps not run are listed as skipped, with why)\n  \
         1    the configuration could not be loaded\n  \
         2    bad command line\n  \
         3    at least one device has a problem (its summary line says what to check)\n  \
-        4    the check panicked\n  \
+        4    a thread panicked\n  \
         130  stopped by Ctrl-C or SIGTERM\n\
         On every way out the Mega gets zero references and magnet off first.")]
     Check(CheckArgs),
@@ -1444,11 +1444,17 @@ fn check_command(args: &CheckArgs) -> ! {
     for line in report.lines() {
         println!("  {line}");
     }
-    if report.interrupted {
-        println!("interrupted; the robot was sent zero references and magnet off");
-    }
     if args.json {
         println!("{}", report.json());
+    }
+    if interrupt.panicked() {
+        eprintln!(
+            "ratf check: a thread panicked; the robot was sent zero references and magnet off"
+        );
+        std::process::exit(ratf_host::apps::run::EXIT_PANIC);
+    }
+    if report.interrupted {
+        eprintln!("ratf check: interrupted; the robot was sent zero references and magnet off");
     }
     std::process::exit(report.exit_code());
 }

@@ -11,6 +11,9 @@ use super::wheels::{self, Drive, WHEEL_NAMES};
 use super::{Check, HOLD_MARGIN_US, MAGNET_ON, SETTLE};
 use crate::devices::open_loop::OpenLoopHold;
 
+/// Why a step that needs a person was skipped when standard input closed.
+const NO_ANSWER: &str = "nobody answered (standard input closed; --yes skips the questions)";
+
 impl Check<'_, '_> {
     /// Each wheel turned by hand, then the switch (interactive only).
     pub(super) fn by_hand(&mut self) -> Option<()> {
@@ -30,7 +33,13 @@ impl Check<'_, '_> {
                 "turn the {name} wheel (motor {k}) by hand so that it rolls forward, then \
                  press Enter (s + Enter: skip):"
             );
-            let line = self.session.wait_enter(&mut *self.operator, &prompt)?;
+            let Some(line) = self.session.wait_enter(&mut *self.operator, &prompt)? else {
+                self.devices
+                    .push(DeviceReport::skipped("encoders", NO_ANSWER.to_owned()));
+                self.devices
+                    .push(DeviceReport::skipped("switch", NO_ANSWER.to_owned()));
+                return Some(());
+            };
             if line.eq_ignore_ascii_case("s") {
                 continue;
             }
@@ -54,7 +63,11 @@ impl Check<'_, '_> {
         ));
         self.session.restart_mega_window();
         let prompt = "press and release the box switch, then press Enter (s + Enter: skip):";
-        let line = self.session.wait_enter(&mut *self.operator, prompt)?;
+        let Some(line) = self.session.wait_enter(&mut *self.operator, prompt)? else {
+            self.devices
+                .push(DeviceReport::skipped("switch", NO_ANSWER.to_owned()));
+            return Some(());
+        };
         if line.eq_ignore_ascii_case("s") {
             self.devices.push(DeviceReport::skipped(
                 "switch",
@@ -88,11 +101,14 @@ impl Check<'_, '_> {
                 "wheels off the ground? each will turn for {:.1} s [y/N]",
                 self.options.spin_s
             );
-            if self.session.ask(&mut *self.operator, &question)? != Asked::Yes {
-                self.devices.push(DeviceReport::skipped(
-                    "wheels",
-                    "the wheels were not off the ground".to_owned(),
-                ));
+            let why = match self.session.ask(&mut *self.operator, &question)? {
+                Asked::Yes => None,
+                Asked::NoAnswer => Some(NO_ANSWER),
+                Asked::No | Asked::Unknown => Some("the wheels were not off the ground"),
+            };
+            if let Some(why) = why {
+                self.devices
+                    .push(DeviceReport::skipped("wheels", why.to_owned()));
                 return Some(());
             }
         }
@@ -135,7 +151,7 @@ impl Check<'_, '_> {
                 match self.session.ask(&mut *self.operator, &question)? {
                     Asked::Yes => Some(true),
                     Asked::No => Some(false),
-                    Asked::Unknown => None,
+                    Asked::Unknown | Asked::NoAnswer => None,
                 }
             } else {
                 None
@@ -204,22 +220,26 @@ impl Check<'_, '_> {
                  {off_batches} with it off: the link is not writable (see the mega line)"
             ));
         }
-        let confirmed = if self.operator.interactive() {
-            let asked = self.session.ask(
+        let asked = if self.operator.interactive() {
+            self.session.ask(
                 &mut *self.operator,
                 "did the magnet click on and then off? [y/N]",
-            )?;
-            if asked != Asked::Yes {
-                problems.push(
-                    "the magnet did not respond: check its signal wire on pin 30 (PC7), its \
-                     supply and ground"
-                        .to_owned(),
-                );
-            }
-            Some(asked == Asked::Yes)
+            )?
         } else {
-            None
+            Asked::NoAnswer
         };
+        let confirmed = match asked {
+            Asked::Yes => Some(true),
+            Asked::No | Asked::Unknown => Some(false),
+            Asked::NoAnswer => None,
+        };
+        if confirmed == Some(false) {
+            problems.push(
+                "the magnet did not respond: check its signal wire on pin 30 (PC7), its supply \
+                 and ground"
+                    .to_owned(),
+            );
+        }
         let seen = format!(
             "on for {:.1} s ({on_batches} batches with L = 1), then off{}",
             MAGNET_ON.as_secs_f64(),

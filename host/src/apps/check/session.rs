@@ -26,8 +26,10 @@ pub enum Asked {
     Yes,
     /// No (or an empty line).
     No,
-    /// Something else, or nobody answers.
+    /// Something else.
     Unknown,
+    /// Nobody answers (standard input closed).
+    NoAnswer,
 }
 
 /// The devices as the check sees them.
@@ -161,23 +163,27 @@ impl<'a> Session<'a> {
                     });
                 }
                 Answer::Pending => {}
-                Answer::Closed => return Some(Asked::Unknown),
+                Answer::Closed => return Some(Asked::NoAnswer),
             }
         }
     }
 
-    /// Ask for an action and wait for Enter (reading the devices); the line typed, or
-    /// `None` if interrupted or nobody answers.
-    pub fn wait_enter(&mut self, operator: &mut dyn Operator, prompt: &str) -> Option<String> {
+    /// Ask for an action and wait for Enter (reading the devices): `Some(Some(line))`,
+    /// `Some(None)` if nobody answers (standard input closed), `None` if interrupted.
+    pub fn wait_enter(
+        &mut self,
+        operator: &mut dyn Operator,
+        prompt: &str,
+    ) -> Option<Option<String>> {
         operator.ask(prompt);
         loop {
             if !self.pump(Duration::ZERO) {
                 return None;
             }
             match operator.poll(POLL) {
-                Answer::Line(line) => return Some(line),
+                Answer::Line(line) => return Some(Some(line)),
                 Answer::Pending => {}
-                Answer::Closed => return None,
+                Answer::Closed => return Some(None),
             }
         }
     }
