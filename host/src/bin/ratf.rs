@@ -1428,6 +1428,10 @@ fn check_command(args: &CheckArgs) -> ! {
         pwm_percent: args.pwm_percent,
         spin_s: args.spin_s,
     };
+    if let Err(e) = options.validate() {
+        eprintln!("ratf check: {e}");
+        std::process::exit(2);
+    }
     let mut operator: Box<dyn Operator> = if args.yes {
         Box::new(Unattended)
     } else {

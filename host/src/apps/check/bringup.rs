@@ -8,7 +8,7 @@ use serde_json::json;
 use super::report::DeviceReport;
 use super::session::Asked;
 use super::wheels::{self, Drive, WHEEL_NAMES};
-use super::{Check, HOLD_MARGIN_US, MAGNET_ON, SETTLE};
+use super::{Check, HOLD_MARGIN_US, MAGNET_ON, SETTLE, bounded};
 use crate::devices::open_loop::OpenLoopHold;
 
 /// Why a step that needs a person was skipped when standard input closed.
@@ -113,8 +113,8 @@ impl Check<'_, '_> {
             }
         }
         let pwm_max = f64::from(self.config.mega.pwm_max);
-        let pwm = (self.options.pwm_percent.clamp(1.0, 100.0) / 100.0 * pwm_max).round() as i16;
-        let spin = Duration::from_secs_f64(self.options.spin_s.clamp(0.1, 10.0));
+        let pwm = (bounded(self.options.pwm_percent, 1.0, 100.0) / 100.0 * pwm_max).round() as i16;
+        let spin = Duration::from_secs_f64(bounded(self.options.spin_s, 0.1, 10.0));
         let moved = wheels::moved_ticks(self.config.robot.ticks_per_wheel_rev);
         let mut problems = Vec::new();
         let mut data = Vec::new();

@@ -79,6 +79,31 @@ impl Default for CheckOptions {
     }
 }
 
+impl CheckOptions {
+    /// Every option within its range, or which flag is not and what it takes.
+    pub fn validate(&self) -> Result<(), String> {
+        let within = |flag: &str, value: f64, lo: f64, hi: f64| {
+            if (lo..=hi).contains(&value) {
+                Ok(())
+            } else {
+                Err(format!("{flag} {value}: expected {lo} to {hi}"))
+            }
+        };
+        within("--observe-s", self.observe_s, 0.5, 60.0)?;
+        within("--pwm-percent", self.pwm_percent, 1.0, 100.0)?;
+        within("--spin-s", self.spin_s, 0.1, 10.0)
+    }
+}
+
+/// `value` within `lo..=hi`, or `lo` when it is not a number.
+fn bounded(value: f64, lo: f64, hi: f64) -> f64 {
+    if value.is_nan() {
+        lo
+    } else {
+        value.clamp(lo, hi)
+    }
+}
+
 /// What was opened.
 struct Opened {
     mega: Result<(), String>,
@@ -245,7 +270,7 @@ impl Check<'_, '_> {
         });
         if !telemetry {
             let why = "no telemetry from the Mega".to_owned();
-            for step in ["encoders", "wheels", "magnet"] {
+            for step in ["encoders", "switch", "wheels", "magnet"] {
                 self.devices.push(DeviceReport::skipped(step, why.clone()));
             }
             return Some(());
@@ -257,5 +282,34 @@ impl Check<'_, '_> {
 
     fn say(&mut self, line: &str) {
         self.operator.say(line);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_out_of_range_name_their_flag() {
+        assert!(CheckOptions::default().validate().is_ok());
+        let nan = CheckOptions {
+            observe_s: f64::NAN,
+            ..CheckOptions::default()
+        };
+        assert_eq!(
+            nan.validate().unwrap_err(),
+            "--observe-s NaN: expected 0.5 to 60"
+        );
+        let fast = CheckOptions {
+            pwm_percent: 250.0,
+            ..CheckOptions::default()
+        };
+        assert!(
+            fast.validate()
+                .unwrap_err()
+                .starts_with("--pwm-percent 250")
+        );
+        assert_eq!(bounded(f64::NAN, 0.1, 10.0), 0.1);
+        assert_eq!(bounded(f64::INFINITY, 0.1, 10.0), 10.0);
     }
 }

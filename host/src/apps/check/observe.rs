@@ -4,8 +4,8 @@ use std::time::{Duration, Instant};
 
 use serde_json::json;
 
-use super::Check;
 use super::report::DeviceReport;
+use super::{Check, bounded};
 use crate::devices::open_loop::OpenLoopHold;
 
 impl Check<'_, '_> {
@@ -13,7 +13,7 @@ impl Check<'_, '_> {
     /// Mega sent telemetry.
     pub(super) fn observe(&mut self) -> Option<bool> {
         let config = self.config;
-        let observe = Duration::from_secs_f64(self.options.observe_s.clamp(0.5, 60.0));
+        let observe = Duration::from_secs_f64(bounded(self.options.observe_s, 0.5, 60.0));
         let mega_open = self.opened.mega.is_ok();
         let lidar_open = self.opened.lidar.is_ok();
         let imu_open = matches!(self.opened.imu, Some(Ok(_)));
