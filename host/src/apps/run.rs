@@ -237,8 +237,14 @@ impl Tap for StatusTap {
     }
 }
 
-/// Turn a port's open error into what to do.
-fn port_problem(device: &str, key: &str, path: &str, error: &serialport::Error) -> String {
+/// Turn a port's open error into what to do (`ratf check` reports a missing port the same
+/// way).
+pub(crate) fn port_problem(
+    device: &str,
+    key: &str,
+    path: &str,
+    error: &serialport::Error,
+) -> String {
     let advice = match error.kind() {
         serialport::ErrorKind::NoDevice => format!(
             "no such device; plug it in, or set [link] {key} = \"…\" (a udev rule can give it \

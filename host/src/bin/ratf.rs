@@ -63,6 +63,19 @@ enum Command {
         130  stopped by Ctrl-C or SIGTERM\n\
         On every way out the Mega gets zero references and magnet off first.")]
     Run(RunArgs),
+    /// The wiring check a team runs first: what each device sees (the Mega's telemetry,
+    /// encoders and switch, the lidar's rate, points and beacons, the IMU's identity and
+    /// gyro bias, the server), then each wheel turned open loop in turn and the magnet
+    /// toggled; one summary line per device.
+    #[command(after_help = "Exit codes:\n  \
+        0    every device checked is ok (steps not run are listed as skipped, with why)\n  \
+        1    the configuration could not be loaded\n  \
+        2    bad command line\n  \
+        3    at least one device has a problem (its summary line says what to check)\n  \
+        4    a thread panicked\n  \
+        130  stopped by Ctrl-C or SIGTERM\n\
+        On every way out the Mega gets zero references and magnet off first.")]
+    Check(CheckArgs),
     /// Calibrate the lidar (range scale and offset, mount yaw) and the beacons' layout from a
     /// 35 s drive with nine stops, in the simulator for now: the drawn world's truth is
     /// printed beside the fit. `--write FILE` saves the calibrated configuration.
@@ -106,6 +119,33 @@ struct RunArgs {
     /// Status lines per second (0: none).
     #[arg(long, default_value_t = 4.0)]
     status_hz: f64,
+}
+
+#[derive(Debug, Args)]
+struct CheckArgs {
+    /// The robot's configuration (as for `ratf run`).
+    #[arg(long, value_name = "FILE")]
+    config: PathBuf,
+    /// Ask nothing: the wheels are taken to be off the ground (CI, a robot on a stand);
+    /// the steps that need a person (turning wheels by hand, watching) are skipped.
+    #[arg(long)]
+    yes: bool,
+    /// Print one JSON object with every device's findings as the last line of stdout.
+    #[arg(long)]
+    json: bool,
+    /// How long each device is watched, s.
+    #[arg(long, default_value_t = 2.0)]
+    observe_s: f64,
+    /// The robot is not at the start pose among the beacons (on a stand): the beacons are
+    /// counted but not judged.
+    #[arg(long)]
+    off_field: bool,
+    /// Open-loop PWM of the bring-up, percent of `[mega] pwm_max`.
+    #[arg(long, default_value_t = 20.0)]
+    pwm_percent: f64,
+    /// How long each wheel turns in the bring-up, s.
+    #[arg(long, default_value_t = 1.0)]
+    spin_s: f64,
 }
 
 #[derive(Debug, Args)]
@@ -337,6 +377,7 @@ fn main() -> anyhow::Result<()> {
         Command::Sim(args) if args.serve_pty.is_some() => serve_pty_command(&args)?,
         Command::Sim(args) => sim_command(&args)?,
         Command::Run(args) => run_command(&args),
+        Command::Check(args) => check_command(&args),
         Command::Referee(args) => referee_command(&args)?,
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
@@ -1390,4 +1431,82 @@ fn run_command(args: &RunArgs) -> ! {
     );
     println!("the robot was sent zero references and magnet off");
     std::process::exit(report.outcome.exit_code());
+}
+
+/// `ratf check`: exits with the codes its help lists.
+fn check_command(args: &CheckArgs) -> ! {
+    use ratf_host::apps::check::operator::{Operator, Terminal, Unattended};
+    use ratf_host::apps::check::report::EXIT_SETUP;
+    use ratf_host::apps::check::{self, CheckOptions};
+    use ratf_host::devices::Shared;
+    let fail = |message: &str| -> ! {
+        eprintln!("ratf check: {message}");
+        std::process::exit(EXIT_SETUP);
+    };
+    let config = match Config::load_robot(&args.config) {
+        Ok(config) => config,
+        Err(ConfigError::Invalid { issues, .. }) => {
+            eprintln!(
+                "{}: {} invalid value(s):",
+                args.config.display(),
+                issues.len()
+            );
+            for issue in issues {
+                eprintln!("  {issue}");
+            }
+            std::process::exit(EXIT_SETUP);
+        }
+        Err(e) => fail(&e.to_string()),
+    };
+    let interrupt = Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, interrupt.quit_flag()) {
+            fail(&format!("installing the signal handlers: {e}"));
+        }
+    }
+    let previous = std::panic::take_hook();
+    let on_panic = interrupt.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        on_panic.mark_panicked();
+        previous(info);
+    }));
+    let options = CheckOptions {
+        observe_s: args.observe_s,
+        on_field: !args.off_field,
+        pwm_percent: args.pwm_percent,
+        spin_s: args.spin_s,
+    };
+    if let Err(e) = options.validate() {
+        eprintln!("ratf check: {e}");
+        std::process::exit(2);
+    }
+    let mut operator: Box<dyn Operator> = if args.yes {
+        Box::new(Unattended)
+    } else {
+        Box::new(Terminal::default())
+    };
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        check::run_check(&config, &options, &interrupt, operator.as_mut())
+    }));
+    let Ok(report) = outcome else {
+        eprintln!("ratf check: panicked; the robot was sent zero references and magnet off");
+        std::process::exit(ratf_host::apps::run::EXIT_PANIC);
+    };
+    println!("ratf check summary:");
+    for line in report.lines() {
+        println!("  {line}");
+    }
+    if args.json {
+        println!("{}", report.json());
+    }
+    if interrupt.panicked() {
+        eprintln!(
+            "ratf check: a thread panicked; the robot was sent zero references and magnet off"
+        );
+        std::process::exit(ratf_host::apps::run::EXIT_PANIC);
+    }
+    if report.interrupted {
+        eprintln!("ratf check: interrupted; the robot was sent zero references and magnet off");
+    }
+    std::process::exit(report.exit_code());
 }
