@@ -5,175 +5,13 @@
 //! in their own process groups, killed on drop; the tests run one at a time (two real-time
 //! worlds side by side starve each other on 2 cores).
 
-use std::io::{BufRead, BufReader, Read};
-use std::os::unix::process::CommandExt;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
-use std::sync::{Mutex, MutexGuard, PoisonError};
-use std::time::{Duration, Instant};
+mod common;
+
+use std::time::Duration;
 
 use serde_json::Value;
 
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn one_at_a_time() -> MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// A child in its own process group, killed (the whole group) on drop; its stdout lines
-/// arrive on a channel.
-struct Spawned {
-    child: Child,
-    lines: Receiver<String>,
-    seen: Vec<String>,
-}
-
-impl Spawned {
-    fn start(args: &[&str], stderr_to: &Path) -> Self {
-        let stderr = std::fs::File::create(stderr_to).expect("stderr file");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_ratf"))
-            .args(args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(stderr)
-            .process_group(0)
-            .spawn()
-            .expect("ratf starts");
-        let stdout = child.stdout.take().expect("piped stdout");
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        Self {
-            child,
-            lines,
-            seen: Vec::new(),
-        }
-    }
-
-    /// The first line (from now on) that `matches`, within `timeout`.
-    fn wait_line(&mut self, timeout: Duration, matches: impl Fn(&str) -> bool) -> String {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) => {
-                    self.seen.push(line.clone());
-                    if matches(&line) {
-                        return line;
-                    }
-                }
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => panic!(
-                    "no such line within {timeout:?}; saw:\n{}",
-                    self.seen.join("\n")
-                ),
-            }
-        }
-    }
-
-    /// Its exit status within `timeout`, with everything it printed in `seen`.
-    fn wait_exit(&mut self, timeout: Duration) -> ExitStatus {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                while let Ok(line) = self.lines.recv_timeout(Duration::from_millis(200)) {
-                    self.seen.push(line);
-                }
-                return status;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "still running after {timeout:?}; saw:\n{}",
-                self.seen.join("\n")
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    /// The last line, parsed as JSON.
-    fn json(&self) -> Value {
-        let last = self.seen.last().map(String::as_str).unwrap_or("");
-        serde_json::from_str(last)
-            .unwrap_or_else(|e| panic!("last line is not JSON ({e}):\n{}", self.seen.join("\n")))
-    }
-}
-
-impl Drop for Spawned {
-    fn drop(&mut self) {
-        if let Ok(None) = self.child.try_wait() {
-            let group = nix::unistd::Pid::from_raw(self.child.id() as i32);
-            let _ = nix::sys::signal::killpg(group, nix::sys::signal::Signal::SIGKILL);
-        }
-        let _ = self.child.wait();
-    }
-}
-
-/// A fresh directory under the system's temporary one, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
-        let dir = std::env::temp_dir().join(format!("ratf-{name}-{}-{nanos}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
-        Self(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn read(path: &Path) -> String {
-    let mut text = String::new();
-    if let Ok(mut file) = std::fs::File::open(path) {
-        let _ = file.read_to_string(&mut text);
-    }
-    text
-}
-
-/// The served world (round 1, seed 1) and its server's port.
-fn serve(dir: &Path) -> (Spawned, u16) {
-    let dev = dir.join("dev");
-    let mut world = Spawned::start(
-        &[
-            "sim",
-            "--round",
-            "1",
-            "--seed",
-            "1",
-            "--wait-for-robot-s",
-            "60",
-            "--serve-pty",
-            dev.to_str().expect("utf-8 path"),
-        ],
-        &dir.join("serve.err"),
-    );
-    let line = world.wait_line(Duration::from_secs(30), |l| l.starts_with("server port "));
-    let port = line["server port ".len()..].trim().parse().expect("a port");
-    (world, port)
-}
-
-fn robot_config(dir: &Path, lidar: &Path, port: u16) -> PathBuf {
-    let path = dir.join("robot.toml");
-    let text = format!(
-        "[link]\nmega_port = \"{}\"\nlidar_port = \"{}\"\nimu = \"none\"\n\n[referee]\nserver_port = {port}\n",
-        dir.join("dev/mega").display(),
-        lidar.display()
-    );
-    std::fs::write(&path, text).expect("config");
-    path
-}
+use common::{Spawned, TempDir, one_at_a_time, read, robot_config, serve};
 
 fn device<'a>(json: &'a Value, name: &str) -> &'a Value {
     json["devices"]
@@ -187,7 +25,7 @@ fn ratf_check_finds_every_served_device_ok_and_each_wheel_turning_its_own_way() 
     let _serial = one_at_a_time();
     let tmp = TempDir::new("check-pty");
     let dir = &tmp.0;
-    let (_world, port) = serve(dir);
+    let (_world, port) = serve(dir, "1", &[]);
     let config = robot_config(dir, &dir.join("dev/lidar"), port);
     let mut check = Spawned::start(
         &[
@@ -265,7 +103,7 @@ fn a_missing_lidar_is_named_with_where_it_looked_and_the_check_carries_on() {
     let _serial = one_at_a_time();
     let tmp = TempDir::new("check-missing");
     let dir = &tmp.0;
-    let (_world, port) = serve(dir);
+    let (_world, port) = serve(dir, "1", &[]);
     let nowhere = dir.join("dev/no-lidar");
     let config = robot_config(dir, &nowhere, port);
     let mut check = Spawned::start(
@@ -303,7 +141,7 @@ fn sigint_during_the_bring_up_stops_the_robot_and_exits_130() {
     let _serial = one_at_a_time();
     let tmp = TempDir::new("check-sigint");
     let dir = &tmp.0;
-    let (_world, port) = serve(dir);
+    let (_world, port) = serve(dir, "1", &[]);
     let config = robot_config(dir, &dir.join("dev/lidar"), port);
     let mut check = Spawned::start(
         &[

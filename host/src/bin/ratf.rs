@@ -77,8 +77,19 @@ enum Command {
         On every way out the Mega gets zero references and magnet off first.")]
     Check(CheckArgs),
     /// Calibrate the lidar (range scale and offset, mount yaw) and the beacons' layout from a
-    /// 35 s drive with nine stops, in the simulator for now: the drawn world's truth is
-    /// printed beside the fit. `--write FILE` saves the calibrated configuration.
+    /// 37 s drive around machine A with nine stops: in the simulator (the drawn world's
+    /// truth is printed beside the fit), or with `--robot` on the robot's devices (placed at
+    /// the start pose, the poles' distances measured with a tape and given with `--tape`).
+    /// `--write FILE` saves the calibrated configuration.
+    #[command(
+        after_help = "The beacons, as [field] beacons_m numbers them (world frame, \
+        +x towards the outgoing warehouse, +y towards the incoming one):\n  \
+        0  (+0.888, +0.538) m    1  (-0.888, +0.538) m\n  \
+        2  (+0.888, -0.538) m    3  (-0.888, -0.538) m\n\
+        Exit codes with --robot: 0 calibrated, 1 could not start (configuration, device), \
+        2 bad command line, 3 a device failed or the fit was refused, 130 Ctrl-C or SIGTERM. \
+        On every way out the Mega gets zero references and magnet off first."
+    )]
     Calibrate(CalibrateArgs),
 }
 
@@ -99,9 +110,45 @@ struct CalibrateArgs {
     /// rests on the odometry and the nominal layout).
     #[arg(long)]
     no_tape: bool,
-    /// Write the calibrated configuration to this file.
+    /// Write the calibrated configuration to this file: the `--config` file with the
+    /// calibrated keys set (`[lidar] range_scale`, `range_offset_m`, `[robot]
+    /// lidar_yaw_deg`, `[field] beacons_m`).
     #[arg(long, value_name = "FILE")]
     write: Option<PathBuf>,
+    /// On the robot's devices (`--config` is then the robot's file, required): the robot
+    /// stands at the start pose, with machine A's surroundings clear.
+    #[arg(long, requires = "config")]
+    robot: bool,
+    /// A pole-to-pole distance measured with a tape, centre to centre, as `A-B=METRES`
+    /// (e.g. `0-1=1.776`), beacons numbered as below; give all six pairs if you can.
+    #[arg(long, value_name = "A-B=METRES", value_parser = parse_tape, requires = "robot")]
+    tape: Vec<ratf_core::calibration::TapeMeasure>,
+    /// Do not ask before driving (the robot stands at the start pose with room around).
+    #[arg(long, requires = "robot")]
+    yes: bool,
+    /// Folder for the drive's recording (with `--robot`).
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+}
+
+/// `A-B=METRES`: a tape measure between beacons A and B.
+fn parse_tape(text: &str) -> Result<ratf_core::calibration::TapeMeasure, String> {
+    let bad = || format!("{text:?}: expected A-B=METRES with beacons 0 to 3, e.g. 0-1=1.776");
+    let (pair, metres) = text.split_once('=').ok_or_else(bad)?;
+    let (from, to) = pair.split_once('-').ok_or_else(bad)?;
+    let from: usize = from.trim().parse().map_err(|_| bad())?;
+    let to: usize = to.trim().parse().map_err(|_| bad())?;
+    let distance_m: f64 = metres.trim().parse().map_err(|_| bad())?;
+    if from > 3 || to > 3 || from == to || !(0.2..=3.0).contains(&distance_m) {
+        return Err(format!(
+            "{text:?}: two different beacons from 0 to 3, and a distance within 0.2 to 3 m"
+        ));
+    }
+    Ok(ratf_core::calibration::TapeMeasure {
+        from,
+        to,
+        distance_m,
+    })
 }
 
 #[derive(Debug, Args)]
@@ -1122,6 +1169,9 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
 
 fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     use ratf_host::apps::calibrate;
+    if args.robot {
+        calibrate_on_robot(args);
+    }
     let mut config = load_config(args.config.as_deref())?;
     config.sim.seed = args.seed;
     if let Some(world) = args.world {
@@ -1167,13 +1217,121 @@ fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
         e.beacon_max_mm, e.uncalibrated_beacon_max_mm, e.beacon_layout_max_mm
     );
     if let Some(path) = &args.write {
-        let mut calibrated = config.clone();
-        fit.apply(&mut calibrated);
-        let text = calibrated.to_toml_string()?;
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote the calibrated configuration to {}", path.display());
+        write_calibrated(args.config.as_deref(), &config, fit, path)?;
     }
     Ok(())
+}
+
+/// Write `path`: the file `source` (or nothing) with the calibrated keys set.
+fn write_calibrated(
+    source: Option<&Path>,
+    config: &Config,
+    fit: &ratf_core::calibration::Calibration,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let mut file: toml::Table = match source {
+        Some(source) => toml::from_str(
+            &fs::read_to_string(source).with_context(|| format!("reading {}", source.display()))?,
+        )
+        .with_context(|| format!("parsing {}", source.display()))?,
+        None => toml::Table::new(),
+    };
+    fit.write_into(config, &mut file);
+    let text = toml::to_string(&file)?;
+    Config::from_toml_str(&text).context("the calibrated configuration")?;
+    fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote the calibrated configuration to {}", path.display());
+    Ok(())
+}
+
+/// `ratf calibrate --robot`: exits with the documented codes.
+fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
+    use ratf_host::apps::calibrate::robot::{self, RobotCalibrateError, RobotOptions};
+    use ratf_host::apps::run;
+    use ratf_host::devices::Shared;
+    let exit = |code: i32, message: &str| -> ! {
+        eprintln!("ratf calibrate: {message}");
+        std::process::exit(code);
+    };
+    let Some(path) = args.config.as_deref() else {
+        exit(2, "--robot needs --config FILE (the robot's configuration)");
+    };
+    let config = match Config::load_robot(path) {
+        Ok(config) => config,
+        Err(e) => exit(1, &e.to_string()),
+    };
+    if args.tape.is_empty() {
+        eprintln!(
+            "ratf calibrate: no --tape: the range scale rests on the wheels' odometry and the \
+             nominal layout (measure the six pole-to-pole distances for a better fit)"
+        );
+    }
+    if !args.yes {
+        eprint!(
+            "The robot must stand at the start pose (facing the incoming warehouse) with nothing \
+             within 0.3 m of machine A's loop. Drive now? [y/N] "
+        );
+        let mut answer = String::new();
+        let yes = std::io::stdin().read_line(&mut answer).is_ok()
+            && answer.trim().eq_ignore_ascii_case("y");
+        if !yes {
+            exit(130, "not driven");
+        }
+    }
+    if let Err(e) = fs::create_dir_all(&args.out) {
+        exit(1, &format!("creating {}: {e}", args.out.display()));
+    }
+    let shared = Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
+            exit(1, &format!("installing the signal handlers: {e}"));
+        }
+    }
+    let options = RobotOptions {
+        tape: args.tape.clone(),
+        recording: run::timestamped_recording(&args.out, "calibration"),
+    };
+    let result = robot::run_on_robot(&config, &options, &shared);
+    let calibrated = match result {
+        Ok(calibrated) => calibrated,
+        Err(RobotCalibrateError::Setup(e)) => exit(1, &e.to_string()),
+        Err(RobotCalibrateError::Interrupted) => {
+            exit(130, &RobotCalibrateError::Interrupted.to_string())
+        }
+        Err(e) => exit(3, &e.to_string()),
+    };
+    let fit = &calibrated.calibration;
+    println!(
+        "{} stops; residual RMS {:.2} σ, {} iterations; recording {}",
+        calibrated.stops.len(),
+        fit.residual_rms,
+        fit.iterations,
+        calibrated.recording.display()
+    );
+    println!(
+        "range scale   {:.5} ± {:.5}\nrange offset  {:+.1} ± {:.1} mm\nmount yaw     {:.2}° ± {:.2}° (believed {:.2}°)",
+        fit.range_scale,
+        fit.range_scale_std,
+        fit.range_offset_m * 1e3,
+        fit.range_offset_std_m * 1e3,
+        fit.mount_yaw_rad.to_degrees(),
+        fit.mount_yaw_std_rad.to_degrees(),
+        config.robot.lidar_yaw_deg
+    );
+    for (i, (b, std)) in fit.beacons.iter().zip(&fit.beacon_std_m).enumerate() {
+        println!(
+            "beacon {i}      ({:+.4}, {:+.4}) m ± {:.1} mm",
+            b.x,
+            b.y,
+            std * 1e3
+        );
+    }
+    if let Some(out) = &args.write
+        && let Err(e) = write_calibrated(Some(path), &config, fit, out)
+    {
+        exit(1, &format!("{e:#}"));
+    }
+    std::process::exit(0);
 }
 
 fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> {

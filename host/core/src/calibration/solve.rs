@@ -159,6 +159,44 @@ impl Calibration {
             *slot = [beacon.x, beacon.y];
         }
     }
+
+    /// Set the calibrated keys in `file`, a configuration file's table whose values are
+    /// `config` (`[lidar] range_scale`, `range_offset_m`, `[robot] lidar_yaw_deg`, `[field]
+    /// beacons_m`), keeping every other key the team wrote and no more: a robot's file stays
+    /// a robot's file.
+    pub fn write_into(&self, config: &Config, file: &mut toml::Table) {
+        let mut calibrated = config.clone();
+        self.apply(&mut calibrated);
+        let mut set = |section: &str, key: &str, value: toml::Value| {
+            let entry = file
+                .entry(section)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if !entry.is_table() {
+                *entry = toml::Value::Table(toml::Table::new());
+            }
+            if let toml::Value::Table(table) = entry {
+                table.insert(key.to_owned(), value);
+            }
+        };
+        set("lidar", "range_scale", calibrated.lidar.range_scale.into());
+        set(
+            "lidar",
+            "range_offset_m",
+            calibrated.lidar.range_offset_m.into(),
+        );
+        set(
+            "robot",
+            "lidar_yaw_deg",
+            calibrated.robot.lidar_yaw_deg.into(),
+        );
+        let beacons = calibrated
+            .field
+            .beacons_m
+            .iter()
+            .map(|&[x, y]| toml::Value::Array(vec![x.into(), y.into()]))
+            .collect();
+        set("field", "beacons_m", toml::Value::Array(beacons));
+    }
 }
 
 /// Why the drive's data cannot be fitted.
@@ -670,6 +708,27 @@ mod tests {
             }
             other => panic!("expected Inconsistent, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn the_calibration_is_written_into_a_file_keeping_the_team_s_other_keys() {
+        let priors = priors();
+        let truth = synthetic(2, &priors, &drive(), 0.001);
+        let fit = solve(&truth.stops, &priors).unwrap();
+        let text = "[link]\nmega_port = \"/dev/ratf-mega\"\n[lidar]\nscan_rate_hz = 7.0\n";
+        let config = Config::robot_from_toml_str(text).unwrap();
+        let mut file: toml::Table = toml::from_str(text).unwrap();
+        fit.write_into(&config, &mut file);
+        let written = toml::to_string(&file).unwrap();
+        let calibrated = Config::robot_from_toml_str(&written).unwrap();
+        let mut expected = config.clone();
+        fit.apply(&mut expected);
+        assert_eq!(calibrated, expected);
+        assert_eq!(calibrated.link.mega_port, "/dev/ratf-mega");
+        assert!(
+            !written.contains("[sim]") && !written.contains("[navigation]"),
+            "{written}"
+        );
     }
 
     #[test]

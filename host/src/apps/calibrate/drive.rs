@@ -73,11 +73,6 @@ impl<'a, D: Devices> ScriptedDrive<'a, D> {
     pub fn finished(&self) -> bool {
         self.finished
     }
-
-    /// The devices.
-    pub fn devices(&self) -> &D {
-        &self.devices
-    }
 }
 
 impl<D: Devices> Devices for ScriptedDrive<'_, D> {
@@ -188,6 +183,17 @@ impl Tap for StopCollector {
     }
 }
 
+/// What a calibration drive brought back.
+#[derive(Debug)]
+pub struct Driven<D> {
+    /// The stops, as the fit takes them.
+    pub stops: Vec<Stop>,
+    /// The devices, handed back.
+    pub devices: D,
+    /// The script ran to its end (not cut short by `quit` or the devices running out).
+    pub finished: bool,
+}
+
 /// Drive `script` with `core` on `devices` (every tap sees every step) and collect the
 /// stops of `windows`, in the beliefs of `config`; stops early when `quit` says so.
 pub fn drive_and_collect<D: Devices>(
@@ -198,7 +204,7 @@ pub fn drive_and_collect<D: Devices>(
     config: &Config,
     taps: &mut [&mut dyn Tap],
     mut quit: impl FnMut() -> bool,
-) -> Result<(Vec<Stop>, D), D::Error> {
+) -> Result<Driven<D>, D::Error> {
     let mut scripted = ScriptedDrive::new(devices, script);
     let mut collector = StopCollector::new(windows);
     {
@@ -216,7 +222,11 @@ pub fn drive_and_collect<D: Devices>(
         })?;
     }
     let field = config.field.field();
-    Ok((collector.finish(config, &field), scripted.devices))
+    Ok(Driven {
+        stops: collector.finish(config, &field),
+        finished: scripted.finished,
+        devices: scripted.devices,
+    })
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@
 use serde::Serialize;
 
 pub mod drive;
+pub mod robot;
 
 use crate::apps::scripts::calibration_drive;
 use drive::drive_and_collect;
@@ -93,7 +94,7 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
     };
     let devices = SimDevices::new(config, &scenario)?;
     let mut core = Core::new(config, script.start)?;
-    let (stops, devices) = drive_and_collect(
+    let driven = drive_and_collect(
         &mut core,
         devices,
         &script,
@@ -102,6 +103,7 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
         &mut [],
         || false,
     )?;
+    let (stops, devices) = (driven.stops, driven.devices);
     let field = config.field.field();
     let world = devices.world();
     let truth = world.truth().clone();
