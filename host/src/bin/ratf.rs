@@ -121,7 +121,7 @@ struct CalibrateArgs {
     robot: bool,
     /// A pole-to-pole distance measured with a tape, centre to centre, as `A-B=METRES`
     /// (e.g. `0-1=1.776`), beacons numbered as below; give all six pairs if you can.
-    #[arg(long, value_name = "A-B=METRES", value_parser = parse_tape, requires = "robot")]
+    #[arg(long, value_name = "A-B=METRES", value_parser = ratf_host::apps::calibrate::robot::parse_tape, requires = "robot")]
     tape: Vec<ratf_core::calibration::TapeMeasure>,
     /// Do not ask before driving (the robot stands at the start pose with room around).
     #[arg(long, requires = "robot")]
@@ -129,26 +129,6 @@ struct CalibrateArgs {
     /// Folder for the drive's recording (with `--robot`).
     #[arg(long, value_name = "DIR", default_value = "out")]
     out: PathBuf,
-}
-
-/// `A-B=METRES`: a tape measure between beacons A and B.
-fn parse_tape(text: &str) -> Result<ratf_core::calibration::TapeMeasure, String> {
-    let bad = || format!("{text:?}: expected A-B=METRES with beacons 0 to 3, e.g. 0-1=1.776");
-    let (pair, metres) = text.split_once('=').ok_or_else(bad)?;
-    let (from, to) = pair.split_once('-').ok_or_else(bad)?;
-    let from: usize = from.trim().parse().map_err(|_| bad())?;
-    let to: usize = to.trim().parse().map_err(|_| bad())?;
-    let distance_m: f64 = metres.trim().parse().map_err(|_| bad())?;
-    if from > 3 || to > 3 || from == to || !(0.2..=3.0).contains(&distance_m) {
-        return Err(format!(
-            "{text:?}: two different beacons from 0 to 3, and a distance within 0.2 to 3 m"
-        ));
-    }
-    Ok(ratf_core::calibration::TapeMeasure {
-        from,
-        to,
-        distance_m,
-    })
 }
 
 #[derive(Debug, Args)]

@@ -14,6 +14,26 @@ use crate::apps::scripts::calibration_drive;
 use crate::devices::{DeviceError, Shared};
 use crate::recording::{Recorder, RecordingError, Session};
 
+/// `A-B=METRES`: a tape measure between beacons A and B.
+pub fn parse_tape(text: &str) -> Result<TapeMeasure, String> {
+    let bad = || format!("{text:?}: expected A-B=METRES with beacons 0 to 3, e.g. 0-1=1.776");
+    let (pair, metres) = text.split_once('=').ok_or_else(bad)?;
+    let (from, to) = pair.split_once('-').ok_or_else(bad)?;
+    let from: usize = from.trim().parse().map_err(|_| bad())?;
+    let to: usize = to.trim().parse().map_err(|_| bad())?;
+    let distance_m: f64 = metres.trim().parse().map_err(|_| bad())?;
+    if from > 3 || to > 3 || from == to || !(0.2..=3.0).contains(&distance_m) {
+        return Err(format!(
+            "{text:?}: two different beacons from 0 to 3, and a distance within 0.2 to 3 m"
+        ));
+    }
+    Ok(TapeMeasure {
+        from,
+        to,
+        distance_m,
+    })
+}
+
 /// How a calibration on the robot is made.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobotOptions {
@@ -104,4 +124,27 @@ pub fn run_on_robot(
         stops,
         recording,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tape_measure_is_read_from_a_b_equals_metres_and_nonsense_is_named() {
+        assert_eq!(
+            parse_tape("0-1=1.776"),
+            Ok(TapeMeasure {
+                from: 0,
+                to: 1,
+                distance_m: 1.776
+            })
+        );
+        for bad in [
+            "0-1", "0:1=1.7", "0-4=1.7", "2-2=1.7", "0-1=17", "0-1=nan", "a-1=1",
+        ] {
+            let error = parse_tape(bad).unwrap_err();
+            assert!(error.contains(bad), "{bad}: {error}");
+        }
+    }
 }
