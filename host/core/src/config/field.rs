@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
 use crate::field::Field;
+use crate::field::geometry::hypot;
 
 /// The floor as measured.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,7 +40,7 @@ impl FieldConfig {
             let key = format!("beacons_m[{index}]");
             c.require(
                 &key,
-                x.is_finite() && y.is_finite() && x.hypot(*y) <= Self::MAX_BEACON_DISTANCE_M,
+                x.is_finite() && y.is_finite() && hypot(*x, *y) <= Self::MAX_BEACON_DISTANCE_M,
                 || {
                     format!(
                         "must be finite and within {} m of the floor's centre (got [{x}, {y}])",
@@ -52,7 +53,7 @@ impl FieldConfig {
             for b in a + 1..4 {
                 let [ax, ay] = self.beacons_m[a];
                 let [bx, by] = self.beacons_m[b];
-                c.require("beacons_m", (ax - bx).hypot(ay - by) >= 0.2, || {
+                c.require("beacons_m", hypot(ax - bx, ay - by) >= 0.2, || {
                     format!("beacons {a} and {b} are less than 0.2 m apart")
                 });
             }
