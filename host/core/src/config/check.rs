@@ -130,10 +130,10 @@ impl<'a> Checker<'a> {
 }
 
 fn range_reason(lo: &str, hi: &str, unit: &str, why: &str) -> String {
-    let unit = if unit.is_empty() {
-        String::new()
-    } else {
-        format!(" {unit}")
+    let unit = match unit {
+        "" => String::new(),
+        "°" => unit.to_owned(),
+        _ => format!(" {unit}"),
     };
     format!("must be within {lo} … {hi}{unit} ({why})")
 }
