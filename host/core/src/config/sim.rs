@@ -197,7 +197,11 @@ impl SimConfig {
         for (i, clutter) in self.clutter.iter().enumerate() {
             clutter.check(c, &format!("clutter[{i}]"));
         }
-        if self.time_step_us != 0 && control_period_us != 0 {
+        // Against a control period and a step that are themselves valid (else reported there).
+        let period_ok = (1_000..=100_000).contains(&control_period_us)
+            && control_period_us.is_multiple_of(1_000);
+        let step_ok = (10..=limits::IMU_READ_PERIOD_US).contains(&self.time_step_us);
+        if period_ok && step_ok {
             c.require(
                 "time_step_us",
                 self.time_step_us,
