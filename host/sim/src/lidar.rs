@@ -170,11 +170,7 @@ impl SimLidar {
             (1e9 / (config.scan_rate_hz * samples_per_revolution as f64)).round() as u64;
         Self {
             config: config.clone(),
-            mount: Pose2::new(
-                robot.lidar_x_m,
-                robot.lidar_y_m,
-                robot.lidar_yaw_deg.to_radians(),
-            ),
+            mount: robot.lidar_mount(),
             samples_per_revolution,
             sample_period_ns,
             next_sample: 0,
@@ -394,11 +390,7 @@ mod tests {
         let (scans, _) = scan_once(robot, 0.0);
         let scan = &scans[1];
         let config = RobotConfig::default();
-        let lidar = robot.compose(Pose2::new(
-            config.lidar_x_m,
-            config.lidar_y_m,
-            config.lidar_yaw_deg.to_radians(),
-        ));
+        let lidar = robot.compose(config.lidar_mount());
         for beacon in Field::competition().beacons() {
             // The nearest surface point seen from the lidar is on the line to the centre.
             let expected_range =

@@ -38,11 +38,7 @@ pub fn synthetic_scan(
     noise_m: f64,
     rng: &mut SimRng,
 ) -> Scan {
-    let mount = Pose2::new(
-        robot.lidar_x_m,
-        robot.lidar_y_m,
-        robot.lidar_yaw_deg.to_radians(),
-    );
+    let mount = robot.lidar_mount();
     let dt_us = REVOLUTION_US / SAMPLES as f64;
     let step = std::f64::consts::TAU / SAMPLES as f64;
     let mut points = Vec::new();

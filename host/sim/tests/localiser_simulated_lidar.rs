@@ -17,11 +17,7 @@ use ratf_sim::testkit::{self, simulated_scans};
 #[test]
 fn centre_methods_on_the_simulated_x4() {
     let robot = RobotConfig::default();
-    let mount = Pose2::new(
-        robot.lidar_x_m,
-        robot.lidar_y_m,
-        robot.lidar_yaw_deg.to_radians(),
-    );
+    let mount = robot.lidar_mount();
     let b0 = Field::competition().beacons()[0].circle;
     let away = Vec2::from_angle(200f64.to_radians());
     println!("range_m  scans  circle_fit_err_m  centroid_err_m  (simulated X4, σ_r = 0.01 m)");

@@ -1236,10 +1236,7 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
     let Some(path) = args.config.as_deref() else {
         exit(2, "--robot needs --config FILE (the robot's configuration)");
     };
-    let config = match Config::load_robot(path) {
-        Ok(config) => config,
-        Err(e) => exit(1, &e.to_string()),
-    };
+    let config = load_robot_or_exit(path, "ratf calibrate", 1);
     if args.tape.is_empty() {
         eprintln!(
             "ratf calibrate: no --tape: the range scale rests on the wheels' odometry and the \
@@ -1476,6 +1473,25 @@ fn serve_pty_command(args: &SimArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The robot's configuration at `path`, or the program `program` ends with `exit_code`
+/// after every problem, each with its key.
+fn load_robot_or_exit(path: &Path, program: &str, exit_code: i32) -> Config {
+    match Config::load_robot(path) {
+        Ok(config) => config,
+        Err(ConfigError::Invalid { issues, .. }) => {
+            eprintln!("{}: {} invalid value(s):", path.display(), issues.len());
+            for issue in issues {
+                eprintln!("  {issue}");
+            }
+            std::process::exit(exit_code);
+        }
+        Err(e) => {
+            eprintln!("{program}: {e}");
+            std::process::exit(exit_code);
+        }
+    }
+}
+
 /// `ratf run`: exits with the codes its help lists.
 fn run_command(args: &RunArgs) -> ! {
     use ratf_host::apps::run::{self, EXIT_SETUP, RunOptions};
@@ -1484,21 +1500,7 @@ fn run_command(args: &RunArgs) -> ! {
         eprintln!("ratf run: {message}");
         std::process::exit(EXIT_SETUP);
     };
-    let config = match Config::load_robot(&args.config) {
-        Ok(config) => config,
-        Err(ConfigError::Invalid { issues, .. }) => {
-            eprintln!(
-                "{}: {} invalid value(s):",
-                args.config.display(),
-                issues.len()
-            );
-            for issue in issues {
-                eprintln!("  {issue}");
-            }
-            std::process::exit(EXIT_SETUP);
-        }
-        Err(e) => fail(&e.to_string()),
-    };
+    let config = load_robot_or_exit(&args.config, "ratf run", EXIT_SETUP);
     let force_start = args.force_start.as_ref().map(|text| {
         ratf_core::referee::protocol::parse_letters(&text.trim().to_ascii_uppercase())
             .unwrap_or_else(|| {
@@ -1581,21 +1583,7 @@ fn check_command(args: &CheckArgs) -> ! {
         eprintln!("ratf check: {message}");
         std::process::exit(EXIT_SETUP);
     };
-    let config = match Config::load_robot(&args.config) {
-        Ok(config) => config,
-        Err(ConfigError::Invalid { issues, .. }) => {
-            eprintln!(
-                "{}: {} invalid value(s):",
-                args.config.display(),
-                issues.len()
-            );
-            for issue in issues {
-                eprintln!("  {issue}");
-            }
-            std::process::exit(EXIT_SETUP);
-        }
-        Err(e) => fail(&e.to_string()),
-    };
+    let config = load_robot_or_exit(&args.config, "ratf check", EXIT_SETUP);
     let interrupt = Shared::new();
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         if let Err(e) = signal_hook::flag::register(signal, interrupt.quit_flag()) {

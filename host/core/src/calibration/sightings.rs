@@ -77,22 +77,8 @@ impl StopRecorder {
     /// A recorder for a stop where the robot believes it stands at `estimate`, with the
     /// lidar mount and the beacons of `config` and `field`.
     pub fn new(config: &Config, field: &Field, estimate: Pose2) -> Self {
-        let robot = &config.robot;
-        let mount = Pose2::new(
-            robot.lidar_x_m,
-            robot.lidar_y_m,
-            robot.lidar_yaw_deg.to_radians(),
-        );
-        let lidar = estimate.compose(mount);
-        let expected = field
-            .beacons()
-            .iter()
-            .map(|b| Expected {
-                beacon: b.index,
-                centre: lidar.inverse_transform_point(b.circle.center),
-                search_radius_m: SEARCH_RADIUS_M,
-            })
-            .collect();
+        let lidar = estimate.compose(config.robot.lidar_mount());
+        let expected = beacons::expected_from(field, lidar, SEARCH_RADIUS_M);
         Self {
             expected,
             step_rad: config.lidar.angle_step_deg.to_radians(),
@@ -242,11 +228,7 @@ mod tests {
         let config = Config::default();
         let field = Field::competition();
         let robot = Pose2::new(-0.64, -0.2, 1.5);
-        let mount = Pose2::new(
-            config.robot.lidar_x_m,
-            config.robot.lidar_y_m,
-            config.robot.lidar_yaw_deg.to_radians(),
-        );
+        let mount = config.robot.lidar_mount();
         let lidar = robot.compose(mount);
         let mut rng = SimRng::new(7);
         // 25 mm of noise: twice the harsh world's at 2 m; one scan of it breaks the poles'

@@ -101,11 +101,7 @@ impl Priors {
             tape_sigma_m: TAPE_SIGMA_M,
             beacon_sigma_m: BEACON_PLACEMENT_SIGMA_M,
             beacon_radius_m: field.beacons()[0].circle.radius_m,
-            mount: Pose2::new(
-                robot.lidar_x_m,
-                robot.lidar_y_m,
-                robot.lidar_yaw_deg.to_radians(),
-            ),
+            mount: robot.lidar_mount(),
             range_scale_sigma: 0.05,
             range_offset_sigma_m: 0.05,
             mount_yaw_sigma_rad: 10f64.to_radians(),

@@ -128,6 +128,16 @@ impl ImuConfig {
 }
 
 impl RobotConfig {
+    /// The lidar's pose on the robot (x, y, m; yaw, rad from `lidar_yaw_deg`): robot frame
+    /// to lidar frame.
+    pub fn lidar_mount(&self) -> crate::field::geometry::Pose2 {
+        crate::field::geometry::Pose2::new(
+            self.lidar_x_m,
+            self.lidar_y_m,
+            self.lidar_yaw_deg.to_radians(),
+        )
+    }
+
     /// Half the front-back distance plus half the left-right distance, m (lx + ly of the
     /// mecanum equations; 0.1725 for the defaults).
     pub fn half_wheelbase_sum_m(&self) -> f64 {

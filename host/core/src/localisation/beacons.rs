@@ -13,7 +13,8 @@ use nalgebra::{Matrix2, Vector2};
 
 use super::ekf::Observation;
 use crate::config::{CentreMethod, LocalisationConfig};
-use crate::field::geometry::Vec2;
+use crate::field::Field;
+use crate::field::geometry::{Pose2, Vec2};
 
 /// Gauss–Newton iterations of the circle fit (it converges in 3–5 from the centroid start).
 const FIT_ITERATIONS: usize = 10;
@@ -27,6 +28,20 @@ pub struct Expected {
     pub centre: Vec2,
     /// Search radius around it, m.
     pub search_radius_m: f64,
+}
+
+/// Every beacon of `field` as seen from a lidar standing at `lidar` (world frame), each to
+/// be searched for within `search_radius_m` of where it should be.
+pub fn expected_from(field: &Field, lidar: Pose2, search_radius_m: f64) -> Vec<Expected> {
+    field
+        .beacons()
+        .iter()
+        .map(|b| Expected {
+            beacon: b.index,
+            centre: lidar.inverse_transform_point(b.circle.center),
+            search_radius_m,
+        })
+        .collect()
 }
 
 /// Why a cluster was not taken for a pole.

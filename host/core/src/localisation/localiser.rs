@@ -48,11 +48,7 @@ impl Localiser {
         Self {
             config: config.clone(),
             gyro_noise_density: robot.imu.gyro_noise_density_rad_s_sqrt_hz,
-            mount: Pose2::new(
-                robot.lidar_x_m,
-                robot.lidar_y_m,
-                robot.lidar_yaw_deg.to_radians(),
-            ),
+            mount: robot.lidar_mount(),
             beacons: *field.beacons(),
             history: History::new(state, time_us, config.history_steps),
             gyro: GyroIntegrator::new(),

@@ -14,7 +14,7 @@
 use ratf_core::config::Config;
 use ratf_core::drivers::x4::scan::Scan;
 use ratf_core::field::geometry::{Pose2, Vec2};
-use ratf_core::localisation::beacons::{Expected, extract};
+use ratf_core::localisation::beacons::{self, Expected, extract};
 use serde::Serialize;
 
 /// Where each beacon should be, and how to look for it.
@@ -29,21 +29,9 @@ impl BeaconSearch {
     /// The configured beacons seen from `pose` (the robot's; the lidar's mount applied).
     pub fn new(config: &Config, pose: Pose2) -> Self {
         let field = config.field.field();
-        let robot = &config.robot;
-        let lidar = pose.compose(Pose2::new(
-            robot.lidar_x_m,
-            robot.lidar_y_m,
-            robot.lidar_yaw_deg.to_radians(),
-        ));
-        let expected = field
-            .beacons()
-            .iter()
-            .map(|b| Expected {
-                beacon: b.index,
-                centre: lidar.inverse_transform_point(b.circle.center),
-                search_radius_m: config.localisation.max_search_radius_m,
-            })
-            .collect();
+        let lidar = pose.compose(config.robot.lidar_mount());
+        let expected =
+            beacons::expected_from(&field, lidar, config.localisation.max_search_radius_m);
         Self {
             expected,
             radius_m: field.beacons()[0].circle.radius_m,
