@@ -341,3 +341,7 @@ impl MegaThread {
         "quit".to_owned()
     }
 }
+
+#[cfg(test)]
+#[path = "tests/mega_session.rs"]
+mod session_tests;

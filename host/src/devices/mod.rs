@@ -21,6 +21,9 @@ pub mod lidar;
 pub mod mega;
 pub mod referee;
 
+#[cfg(test)]
+mod tests;
+
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
