@@ -337,3 +337,25 @@ fn line_noise_both_ways_costs_a_few_batches_and_the_mega_counts_what_it_dropped(
         "driving {driving} of {sent} ticks"
     );
 }
+
+#[test]
+fn a_run_that_quits_can_still_stop_the_robot() {
+    let mut bench = MegaBench::start("mega-quit");
+    synchronise(&mut bench);
+    bench.run_for(Duration::from_millis(200), Some(DRIVE));
+    assert_driving(&bench);
+    // Ctrl-C, SIGTERM or a panic elsewhere: every thread is asked to quit, and the Mega's
+    // thread ends first (it looks every 5 ms; the loop within a tick).
+    bench.stop_thread();
+    let quit = Instant::now();
+    assert!(
+        bench.handle.stop(bench.clock.now()),
+        "the way out could not write to the Mega"
+    );
+    bench.wait_for(
+        Duration::from_secs(1),
+        None,
+        "zero references and magnet off",
+        |b| b.mega.batches_since(quit).any(HostBatch::is_stop),
+    );
+}

@@ -202,6 +202,15 @@ fn scans_come_whole_through_check_code_errors_and_packets_read_in_pieces() {
     assert!(bench.faults().is_empty(), "{:?}", bench.faults());
     assert_eq!(bench.x4.starts(), 1);
 
+    // The way out: every thread quits, then the loop stops the lidar.
+    bench.shared.request_quit();
+    let thread = bench.thread.take().expect("the thread");
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while !thread.is_finished() {
+        assert!(Instant::now() < deadline, "the thread did not end");
+        bench.x4.service(Instant::now() + Duration::from_millis(5));
+    }
+    thread.join().expect("no panic");
     bench.handle.stop_scan();
     bench.wait_for(Duration::from_secs(1), "the stop command", |b| {
         b.x4.commands.iter().any(|(_, c)| *c == Command::StopScan)
