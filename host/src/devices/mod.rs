@@ -324,6 +324,8 @@ impl Devices for RealDevices {
                     return Err(DeviceError::Gone { device, message });
                 }
                 Err(RecvTimeoutError::Timeout) => {}
+                // Threads that ended because the run is quitting: a quit, not a failure.
+                Err(RecvTimeoutError::Disconnected) if self.shared.quitting() => return Ok(None),
                 Err(RecvTimeoutError::Disconnected) => return Err(DeviceError::Disconnected),
             }
         }

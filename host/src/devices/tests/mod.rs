@@ -11,4 +11,5 @@ pub(crate) mod pty;
 
 mod imu_mock;
 mod mega_pty;
+mod real_devices;
 mod x4_pty;
