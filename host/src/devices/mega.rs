@@ -339,6 +339,7 @@ impl MegaThread {
                 self.handle
                     .watchdog(self.clock.now().as_us(), self.settings.watchdog_timeout_us);
             }
+            super::drill::check();
         }
         "quit".to_owned()
     }

@@ -14,8 +14,10 @@
 //!   without a bus.
 //!
 //! Device threads never stop the robot by themselves: they report faults as inputs
-//! ([`Input::DeviceFault`]), and the core stops driving.
+//! ([`Input::DeviceFault`]), and the core stops driving. [`drill`] makes one of them panic
+//! on demand, to prove that a panic stops the robot.
 
+pub mod drill;
 pub mod imu;
 pub mod lidar;
 pub mod mega;
@@ -240,7 +242,7 @@ impl std::fmt::Display for LinkStates {
 impl RealDevices {
     /// Devices fed by `rx` (the device threads' channel), writing through `writers`; the
     /// first host tick comes one period after now. `initial` inputs (an operator's forced
-    /// start) are handed out first, stamped now.
+    /// start) are handed out first, stamped now. Arms the [`drill`] if the environment asks.
     pub fn new(
         clock: Clock,
         rx: Receiver<Message>,
@@ -248,6 +250,9 @@ impl RealDevices {
         shared: Shared,
         initial: Vec<Input>,
     ) -> Self {
+        if let Err(problem) = drill::arm() {
+            eprintln!("{problem}");
+        }
         let now = clock.now();
         Self {
             queued: initial.into_iter().map(|i| Stamped::new(now, i)).collect(),
@@ -350,7 +355,9 @@ impl Devices for RealDevices {
     }
 }
 
-/// Send `message` on `tx`; false when the loop has gone (the thread should end).
+/// Send `message` on `tx`; false when the loop has gone (the thread should end). Where an
+/// armed [`drill`] panics.
 pub(crate) fn report(tx: &Sender<Message>, message: Message) -> bool {
+    drill::check();
     tx.send(message).is_ok()
 }
