@@ -3,7 +3,8 @@
 //! revolution every 1/7 s (360 samples, 40 per packet), trickled at the line's 128 000 baud
 //! (13 bytes a millisecond), so the host reads packets in pieces; quiet again at `A5 65`.
 //! It can damage its stream: a bad check code in every other revolution, a stream that
-//! starts in the middle of a packet, or no answer at all.
+//! starts in the middle of a packet, or no answer at all. Unplugged, it loses power: silent
+//! again until the next start command.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
@@ -89,6 +90,11 @@ impl FakeX4 {
             let now = Instant::now();
             if now >= until {
                 return;
+            }
+            if !self.pty.connected() {
+                // Unplugged (or the port closed): the X4 loses power and comes back silent.
+                self.streaming = false;
+                self.outbox.clear();
             }
             let mut next = until;
             if self.streaming {

@@ -286,3 +286,48 @@ fn a_lidar_that_never_answers_is_reported_with_its_port_then_given_up() {
     }
     thread.join().expect("no panic");
 }
+
+#[test]
+fn an_unplugged_lidar_is_reopened_and_started_again() {
+    let mut bench = LidarBench::start(
+        "x4-replug",
+        Fault::CorruptOddRevolutions,
+        Duration::from_secs(2),
+        Duration::from_secs(10),
+    );
+    let port = bench.x4.pty.path();
+    bench.handle.start_scan();
+    bench.wait_for(Duration::from_secs(5), "scans", |b| b.scans().len() >= 2);
+    bench.x4.pty.unplug();
+    bench.wait_for(Duration::from_secs(2), "a fault naming the port", |b| {
+        b.links().last() == Some(&LinkState::Reconnecting)
+    });
+    let faults = bench.faults();
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!(
+        faults[0].starts_with(&format!("{port}: read failed"))
+            && faults[0].ends_with("; reconnecting"),
+        "{faults:?}"
+    );
+    let before = bench.scans().len();
+    bench.x4.pty.replug();
+    bench.wait_for(Duration::from_secs(5), "scans again", |b| {
+        b.scans().len() >= before + 2
+    });
+    assert_eq!(
+        bench.x4.starts(),
+        2,
+        "the start command again after reopening"
+    );
+    assert_eq!(
+        bench.links(),
+        [
+            LinkState::Syncing,
+            LinkState::Up,
+            LinkState::Reconnecting,
+            LinkState::Syncing,
+            LinkState::Up
+        ]
+    );
+    assert!(bench.gone().is_none());
+}
