@@ -91,3 +91,51 @@ fn replaying_something_that_is_not_a_recording_says_so() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(stderr.contains("ratf-not-a-recording"), "{stderr}");
 }
+
+/// `ratf calibrate --write FILE` writes a configuration that `ratf config --check` accepts
+/// and that holds the fitted lidar calibration, not the defaults.
+#[test]
+fn a_calibration_is_written_as_a_configuration_that_checks() {
+    let dir = std::env::temp_dir().join(format!("ratf-cli-calibrate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary folder");
+    let written = dir.join("calibrated.toml");
+    let calibrate = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args([
+            "calibrate",
+            "--world",
+            "realistic",
+            "--seed",
+            "3",
+            "--write",
+        ])
+        .arg(&written)
+        .output()
+        .expect("ratf calibrate runs");
+    assert!(
+        calibrate.status.success(),
+        "{}",
+        String::from_utf8_lossy(&calibrate.stderr)
+    );
+    let check = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(["config", "--check"])
+        .arg(&written)
+        .output()
+        .expect("ratf config runs");
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    let text = std::fs::read_to_string(&written).expect("the written file");
+    let _ = std::fs::remove_dir_all(&dir);
+    let config: toml::Table = toml::from_str(&text).expect("TOML");
+    let scale = config["lidar"]["range_scale"]
+        .as_float()
+        .expect("range_scale");
+    let yaw = config["robot"]["lidar_yaw_deg"]
+        .as_float()
+        .expect("lidar_yaw_deg");
+    assert!(scale != 1.0 && (scale - 1.0).abs() < 0.03, "{scale}");
+    // The default believes 172°; seed 3's lidar is turned 2.7° off it.
+    assert!((yaw - 174.67).abs() < 0.3, "{yaw}");
+}

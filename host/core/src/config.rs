@@ -3,12 +3,20 @@
 //! Defaults are the 5dpo competition robot; every number's doc comment gives its source or
 //! says it is an assumption. Every section is `#[serde(default)]`, so a file only needs the
 //! keys it changes, and `#[serde(deny_unknown_fields)]`, so a misspelt key is an error.
-//! [`Config::validate`] rejects values no robot can have, naming the key.
+//! [`Config::validate`] rejects values no robot can have, naming the key, the value, the
+//! allowed range and why: every key is bounded to what is physically meaningful (the
+//! robot's geometry, the field, the datasheets, the links' capacity; shared facts in
+//! `limits`), and cross-key checks (`links`, `cross`) refuse combinations a link cannot
+//! carry or the robot cannot use. So no accepted value can exhaust memory, overflow
+//! arithmetic or make a round silently score nothing.
 
 mod check;
 mod competition;
+mod cross;
 mod field;
 mod io;
+mod limits;
+mod links;
 mod localisation;
 mod mega;
 mod motor;
@@ -125,6 +133,7 @@ impl Config {
             .filter(|section| table.contains_key(**section))
             .map(|section| Issue {
                 key: (*section).to_owned(),
+                value: None,
                 reason: "a simulator section: the robot's configuration does not take it \
                          (keep it in the file given to `ratf sim`)"
                     .to_owned(),
@@ -205,6 +214,8 @@ impl Config {
         self.mission
             .check(&mut Checker::new("mission", &mut issues));
         self.field.check(&mut Checker::new("field", &mut issues));
+        links::check(self, &mut issues);
+        cross::check(self, &mut issues);
         issues
     }
 
@@ -225,6 +236,9 @@ impl Config {
             .to_mcu_config(self.robot.ticks_per_wheel_rev, self.motor.battery_voltage_v)
     }
 }
+
+#[cfg(test)]
+mod bounds_tests;
 
 #[cfg(test)]
 mod tests {
@@ -363,7 +377,7 @@ mod tests {
         let e = Config::from_toml_str("[robot]\nwheel_diameter_m = 0.0").unwrap_err();
         assert!(
             e.to_string()
-                .contains("robot.wheel_diameter_m: must be a finite number > 0 (got 0)"),
+                .contains("robot.wheel_diameter_m = 0: must be within 0.01 … 0.3 m ("),
             "{e}"
         );
     }

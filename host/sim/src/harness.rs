@@ -32,9 +32,21 @@ impl SimulatedRobot {
         scenario: &Scenario,
         believed_start: Pose2,
     ) -> Result<Self, ImuError> {
+        Self::in_world(config, config, scenario, believed_start)
+    }
+
+    /// The same, with the world drawn around `world` (the configuration the team wrote,
+    /// plus the seed's errors) and a robot that believes `robot` (e.g. `world` after
+    /// `ratf calibrate`: calibrating changes what the robot believes, not the hall).
+    pub fn in_world(
+        world: &Config,
+        robot: &Config,
+        scenario: &Scenario,
+        believed_start: Pose2,
+    ) -> Result<Self, ImuError> {
         Ok(Self {
-            devices: SimDevices::new(config, scenario)?,
-            robot: Robot::new(config, believed_start),
+            devices: SimDevices::new(world, scenario)?,
+            robot: Robot::new(robot, believed_start),
             last_output: None,
         })
     }

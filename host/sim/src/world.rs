@@ -125,7 +125,30 @@ pub struct WorldStats {
     pub collisions: u32,
     /// Mega control ticks run.
     pub mega_ticks: u64,
+    /// Bytes the host sent to the Mega that found the line's buffer full and were dropped
+    /// (the host → Mega line holds [`HOST_TX_CAPACITY_BYTES`]).
+    pub to_mega_bytes_dropped: u64,
+    /// Telemetry bytes that did not fit the Mega's transmit ring and were dropped; the Mega
+    /// also reports them on its `x` frame, as the firmware does.
+    pub from_mega_bytes_dropped: u64,
+    /// Lidar bytes that found the X4's buffer full and were dropped (the host's parser then
+    /// counts the damaged packets).
+    pub from_lidar_bytes_dropped: u64,
 }
+
+/// The host's transmit buffer towards the Mega, bytes: 4 KiB, the order of a serial write
+/// buffer on the host (assumption), 75 reference batches. Bytes beyond it (a robot over
+/// `ratf sim --serve-pty` writing faster than 115 200 baud) are dropped and counted.
+pub const HOST_TX_CAPACITY_BYTES: usize = 4096;
+
+/// The Mega's transmit ring, bytes: `firmware-mega` `hw::usart::TX_CAPACITY`. Telemetry
+/// that does not fit is dropped and counted, as on the board.
+pub const MEGA_TX_CAPACITY_BYTES: usize = 256;
+
+/// The simulated X4's transmit buffer, bytes: 4 KiB, two and a half revolutions at 7 Hz
+/// (assumption: the X4's own buffer is not documented). Its stream fits its line whenever
+/// the configuration validates (`[lidar]`), so this holds only under a fault.
+pub const LIDAR_TX_CAPACITY_BYTES: usize = 4096;
 
 /// The simulated world: see the module documentation.
 #[derive(Debug)]
@@ -172,7 +195,8 @@ impl World {
             config.robot.ticks_per_wheel_rev,
             config.motor.battery_voltage_v,
         ));
-        let mut from_mega = SerialLine::new(config.link.mega_baud);
+        let mut from_mega =
+            SerialLine::with_capacity(config.link.mega_baud, MEGA_TX_CAPACITY_BYTES);
         from_mega.send(mcu.boot().as_bytes(), 0);
         let mut imu = SimMpu9255::new(rng.fork("imu").next_u64());
         let imu_rate_hz = 200.0;
@@ -198,9 +222,9 @@ impl World {
             actuation: Actuation::default(),
             next_tick_ns: u64::from(config.mega.control_period_us) * 1000,
             ticks_at_last_tick: [0; 4],
-            to_mega: SerialLine::new(config.link.mega_baud),
+            to_mega: SerialLine::with_capacity(config.link.mega_baud, HOST_TX_CAPACITY_BYTES),
             from_mega,
-            from_lidar: SerialLine::new(config.link.lidar_baud),
+            from_lidar: SerialLine::with_capacity(config.link.lidar_baud, LIDAR_TX_CAPACITY_BYTES),
             lidar: SimLidar::new(&world.lidar, &world.robot, rng.fork("lidar")).with_range_errors(
                 truth.lidar_range_scale,
                 truth.lidar_range_offset_m,
@@ -270,7 +294,12 @@ impl World {
 
     /// Counters.
     pub fn stats(&self) -> WorldStats {
-        self.stats
+        WorldStats {
+            to_mega_bytes_dropped: self.to_mega.bytes_dropped(),
+            from_mega_bytes_dropped: self.from_mega.bytes_dropped(),
+            from_lidar_bytes_dropped: self.from_lidar.bytes_dropped(),
+            ..self.stats
+        }
     }
 
     /// Every collision so far.
@@ -312,7 +341,9 @@ impl World {
         SimImuBus(Rc::clone(&self.imu))
     }
 
-    /// Queue bytes from the host to the Mega, starting now.
+    /// Queue bytes from the host to the Mega, starting now. Bytes beyond the host's
+    /// [`HOST_TX_CAPACITY_BYTES`] not yet sent are dropped and counted
+    /// ([`WorldStats::to_mega_bytes_dropped`]).
     pub fn send_to_mega(&mut self, bytes: &[u8]) {
         self.to_mega.send(bytes, self.now_ns);
     }
@@ -408,6 +439,8 @@ impl World {
         let inputs = TickInputs {
             encoder_deltas: deltas,
             switch_pressed: self.shop.switch_contact(self.body.pose).is_some(),
+            // The firmware's count is a wrapping byte.
+            serial_bytes_dropped: self.from_mega.bytes_dropped() as u8,
             ..TickInputs::default()
         };
         self.tick_poses.push(self.body.pose);
@@ -603,6 +636,89 @@ mod tests {
         distinct.sort();
         distinct.dedup();
         assert_eq!(distinct.len(), collisions.len(), "{collisions:?}");
+    }
+
+    #[test]
+    fn every_serial_line_is_bounded_and_counts_what_it_drops() {
+        // Issue 13: `[mega] control_period_us = 1` (with a 1 µs step) grew the Mega → host
+        // line without bound. Unvalidated here, on purpose: the world itself stays bounded.
+        let mut config = Config::default();
+        config.mega.control_period_us = 1;
+        config.sim.time_step_us = 1;
+        let mut world = World::new(&config, &Scenario::new(&config));
+        for _ in 0..200_000 {
+            world.step();
+            world.receive_from_mega();
+            assert!(world.from_mega.pending() <= MEGA_TX_CAPACITY_BYTES);
+        }
+        let stats = world.stats();
+        assert!(stats.from_mega_bytes_dropped > 100_000, "{stats:?}");
+        // The host flooding the Mega's line: 4 KiB kept, the rest counted.
+        world.send_to_mega(&[b'0'; 10_000]);
+        assert_eq!(world.to_mega.pending(), HOST_TX_CAPACITY_BYTES);
+        assert_eq!(
+            world.stats().to_mega_bytes_dropped,
+            10_000 - HOST_TX_CAPACITY_BYTES as u64
+        );
+    }
+
+    #[test]
+    fn the_mega_reports_telemetry_its_ring_dropped_on_x() {
+        let mut world = world(Field::competition().start_pose());
+        let mut link = MegaLink::default();
+        let mut reported = Vec::new();
+        for step in 0..400 {
+            if step == 100 {
+                // A burst the ring cannot hold (spaces, which the host's decoder skips).
+                let now_ns = world.now_ns();
+                world.from_mega.send(&[b' '; 300], now_ns);
+            }
+            world.step();
+            link.feed(&world.receive_from_mega(), world.now_us(), |e| {
+                if let MegaEvent::Telemetry(t) = e {
+                    reported.extend(t.faults.map(|f| f.serial_bytes_dropped));
+                }
+            });
+        }
+        let dropped = world.stats().from_mega_bytes_dropped;
+        assert!(dropped > 0);
+        assert_eq!(
+            reported.last().copied(),
+            Some(dropped as u8),
+            "{reported:?}"
+        );
+    }
+
+    #[test]
+    fn a_lidar_faster_than_its_line_is_bounded_and_counted() {
+        // Issue 13: `[lidar] scan_rate_hz = 65535` grew the X4 → host line without bound.
+        let mut config = Config::default();
+        config.lidar.scan_rate_hz = 65_535.0;
+        let mut world = World::new(&config, &Scenario::new(&config));
+        for _ in 0..3 {
+            world.step();
+            assert!(world.from_lidar.pending() <= LIDAR_TX_CAPACITY_BYTES);
+        }
+        assert!(world.stats().from_lidar_bytes_dropped > 300_000);
+    }
+
+    #[test]
+    fn the_default_world_drops_nothing() {
+        let mut world = world(Field::competition().start_pose());
+        for _ in 0..2_000 {
+            world.step();
+            world.receive_from_mega();
+            world.receive_from_lidar();
+        }
+        let stats = world.stats();
+        assert_eq!(
+            (
+                stats.to_mega_bytes_dropped,
+                stats.from_mega_bytes_dropped,
+                stats.from_lidar_bytes_dropped
+            ),
+            (0, 0, 0)
+        );
     }
 
     #[test]

@@ -25,6 +25,7 @@
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use crate::apps::calibrate::{self, CalibrateError};
 use ratf_core::config::Config;
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::Field;
@@ -161,6 +162,8 @@ pub struct Figures {
     pub ours: EstimatorFigures,
     /// The original filter.
     pub original: EstimatorFigures,
+    /// Seeds whose calibration was refused (their runs use the configuration as written).
+    pub calibrations_refused: u32,
 }
 
 /// Drives the true pose along the route: pure pursuit with a look-ahead, speed limited near
@@ -257,19 +260,29 @@ impl RouteDriver {
     }
 }
 
-/// Run every seed in both conditions; `on_run` hears about each finished run.
+/// Run every seed in both conditions; `on_run` hears about each finished run. With
+/// `calibrated`, each seed's world is first calibrated ([`calibrate::run_in_sim`], with the
+/// tape measures) and both estimators believe the calibration.
 pub fn run(
     config: &Config,
     seeds: u64,
+    calibrated: bool,
     mut on_run: impl FnMut(Condition, u64, &Metrics, &Metrics),
-) -> Result<Figures, ImuError> {
+) -> Result<Figures, CalibrateError> {
     let mut totals = [[Accumulator::default(); 2]; 2];
+    let mut calibrations_refused = 0;
     for (c, condition) in [Condition::Default, Condition::Faults]
         .into_iter()
         .enumerate()
     {
         for seed in 1..=seeds {
-            let scores = run_once(config, condition, seed)?;
+            let mut world = config.clone();
+            world.sim.seed = seed;
+            let (beliefs, refused) = calibrate::beliefs(&world, calibrated)?;
+            if c == 0 {
+                calibrations_refused += u32::from(refused.is_some());
+            }
+            let scores = run_once(&world, &beliefs, condition)?;
             for (e, score) in scores.iter().enumerate() {
                 score.add_to(&mut totals[e][c]);
             }
@@ -286,19 +299,24 @@ pub fn run(
     Ok(Figures {
         ours: figures(0),
         original: figures(1),
+        calibrations_refused,
     })
 }
 
-/// One run: returns the scores of [ours, original].
-fn run_once(config: &Config, condition: Condition, seed: u64) -> Result<[RunScore; 2], ImuError> {
-    let mut config = config.clone();
-    config.sim.seed = seed;
+/// One run in the world of `world` (its seed) with estimators that believe `beliefs`:
+/// returns the scores of [ours, original].
+fn run_once(
+    world: &Config,
+    beliefs: &Config,
+    condition: Condition,
+) -> Result<[RunScore; 2], ImuError> {
+    let seed = world.sim.seed;
     let field = Field::competition();
     let mut driver = RouteDriver::new(&field);
     let truth_start = driver.start_pose();
     let scenario = Scenario {
         start_pose: truth_start,
-        ..Scenario::new(&config)
+        ..Scenario::new(world)
     };
     let faults = condition == Condition::Faults;
     let believed_start = if faults {
@@ -314,8 +332,8 @@ fn run_once(config: &Config, condition: Condition, seed: u64) -> Result<[RunScor
     } else {
         truth_start
     };
-    let mut sim = SimulatedRobot::new(&config, &scenario, believed_start)?;
-    let mut original = Estimation::new(&config, EstimatorKind::Original, believed_start);
+    let mut sim = SimulatedRobot::in_world(world, beliefs, &scenario, believed_start)?;
+    let mut original = Estimation::new(beliefs, EstimatorKind::Original, believed_start);
     if faults {
         sim.drop_scans(0.2, seed);
     }
@@ -418,8 +436,9 @@ mod tests {
 
     #[test]
     fn one_default_run_drives_the_whole_route() {
-        let config = Config::default();
-        let scores = run_once(&config, Condition::Default, 1).unwrap();
+        let mut config = Config::default();
+        config.sim.seed = 1;
+        let scores = run_once(&config, &config, Condition::Default).unwrap();
         assert!(scores[0].acc.samples > 1000, "{}", scores[0].acc.samples);
         // Both estimators were scored on the same samples.
         assert_eq!(scores[0].acc.samples, scores[1].acc.samples);

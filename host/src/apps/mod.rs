@@ -3,6 +3,7 @@
 //! replay of a recording ([`replay`]).
 
 pub mod calibrate;
+pub mod check;
 pub mod drive;
 pub mod loc_bench;
 pub mod nav_bench;

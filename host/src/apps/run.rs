@@ -237,8 +237,14 @@ impl Tap for StatusTap {
     }
 }
 
-/// Turn a port's open error into what to do.
-fn port_problem(device: &str, key: &str, path: &str, error: &serialport::Error) -> String {
+/// Turn a port's open error into what to do (`ratf check` reports a missing port the same
+/// way).
+pub(crate) fn port_problem(
+    device: &str,
+    key: &str,
+    path: &str,
+    error: &serialport::Error,
+) -> String {
     let advice = match error.kind() {
         serialport::ErrorKind::NoDevice => format!(
             "no such device; plug it in, or set [link] {key} = \"…\" (a udev rule can give it \
@@ -256,13 +262,46 @@ fn port_problem(device: &str, key: &str, path: &str, error: &serialport::Error) 
     format!("{device}: {path}: {advice} ({error})")
 }
 
-/// Run the robot: see the module documentation. `shared` carries the quit flag (wire
-/// signals to it first) and the panic flag.
-pub fn run_robot(
+/// The robot's real devices, open and read by their threads.
+#[derive(Debug)]
+pub struct OpenDevices {
+    /// The devices for the runtime's loop.
+    pub devices: RealDevices,
+    /// What keeps them running, and stops the robot.
+    pub running: Running,
+}
+
+/// The device threads and the guard that stops the robot when dropped.
+#[derive(Debug)]
+pub struct Running {
+    /// Writes zero references and magnet off when dropped.
+    pub guard: StopGuard,
+    /// The Mega's writer (its counters).
+    pub mega: MegaHandle,
+    /// The clock every device stamps with.
+    pub clock: Clock,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl Running {
+    /// Stop the robot (zero references, magnet off, lidar stopped), then the threads.
+    pub fn close(self, shared: &Shared) {
+        drop(self.guard);
+        shared.request_quit();
+        for thread in self.threads {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Open and check every device the configuration names (saying which, where it looked and
+/// what to do when one is missing), then start their threads; the core gets `initial`
+/// before anything from the devices. `shared` carries the quit flag and the panic flag.
+pub fn open_devices(
     config: &Config,
-    options: &RunOptions,
     shared: &Shared,
-) -> Result<RunReport, RunError> {
+    initial: Vec<Input>,
+) -> Result<OpenDevices, RunError> {
     let clock = Clock::start();
     let (tx, rx) = mpsc::channel();
     let mega_settings = MegaSettings::from_config(config);
@@ -345,6 +384,45 @@ pub fn run_robot(
     }
     drop(tx);
 
+    let writers = Writers {
+        mega: mega.clone(),
+        lidar: lidar_handle,
+        referee: referee_handle,
+    };
+    let devices = RealDevices::new(clock, rx, writers, shared.clone(), initial);
+    Ok(OpenDevices {
+        devices,
+        running: Running {
+            guard,
+            mega,
+            clock,
+            threads,
+        },
+    })
+}
+
+/// Run the robot: see the module documentation. `shared` carries the quit flag (wire
+/// signals to it first) and the panic flag.
+pub fn run_robot(
+    config: &Config,
+    options: &RunOptions,
+    shared: &Shared,
+) -> Result<RunReport, RunError> {
+    let initial = options
+        .force_start
+        .map(|parts| Input::Operator(OperatorCommand::ForceStart { parts }))
+        .into_iter()
+        .collect();
+    let OpenDevices {
+        mut devices,
+        running:
+            Running {
+                guard,
+                mega,
+                clock,
+                threads,
+            },
+    } = open_devices(config, shared, initial)?;
     let start_pose = Field::competition().start_pose();
     let mut core = Core::new(config, start_pose)?;
     let session = Session {
@@ -359,17 +437,6 @@ pub fn run_robot(
         version: env!("CARGO_PKG_VERSION").to_owned(),
     };
     let mut recorder = Recorder::create(&options.recording, &session).map_err(Box::new)?;
-    let initial = options
-        .force_start
-        .map(|parts| Input::Operator(OperatorCommand::ForceStart { parts }))
-        .into_iter()
-        .collect();
-    let writers = Writers {
-        mega: mega.clone(),
-        lidar: lidar_handle,
-        referee: referee_handle,
-    };
-    let mut devices = RealDevices::new(clock, rx, writers, shared.clone(), initial);
     let mut status = StatusTap {
         field: Field::competition(),
         links: devices.link_states(),
@@ -454,8 +521,13 @@ fn max_rss_kib() -> u64 {
 
 /// The recording's default path: `DIR/run-<seconds since the Unix epoch>.mcap`.
 pub fn default_recording(dir: &Path) -> PathBuf {
+    timestamped_recording(dir, "run")
+}
+
+/// `DIR/<kind>-<seconds since the Unix epoch>.mcap`.
+pub fn timestamped_recording(dir: &Path, kind: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
-    dir.join(format!("run-{secs}.mcap"))
+    dir.join(format!("{kind}-{secs}.mcap"))
 }

@@ -63,9 +63,33 @@ enum Command {
         130  stopped by Ctrl-C or SIGTERM\n\
         On every way out the Mega gets zero references and magnet off first.")]
     Run(RunArgs),
+    /// The wiring check a team runs first: what each device sees (the Mega's telemetry,
+    /// encoders and switch, the lidar's rate, points and beacons, the IMU's identity and
+    /// gyro bias, the server), then each wheel turned open loop in turn and the magnet
+    /// toggled; one summary line per device.
+    #[command(after_help = "Exit codes:\n  \
+        0    every device checked is ok (steps not run are listed as skipped, with why)\n  \
+        1    the configuration could not be loaded\n  \
+        2    bad command line\n  \
+        3    at least one device has a problem (its summary line says what to check)\n  \
+        4    a thread panicked\n  \
+        130  stopped by Ctrl-C or SIGTERM\n\
+        On every way out the Mega gets zero references and magnet off first.")]
+    Check(CheckArgs),
     /// Calibrate the lidar (range scale and offset, mount yaw) and the beacons' layout from a
-    /// 35 s drive with nine stops, in the simulator for now: the drawn world's truth is
-    /// printed beside the fit. `--write FILE` saves the calibrated configuration.
+    /// 37 s drive around machine A with nine stops: in the simulator (the drawn world's
+    /// truth is printed beside the fit), or with `--robot` on the robot's devices (placed at
+    /// the start pose, the poles' distances measured with a tape and given with `--tape`).
+    /// `--write FILE` saves the calibrated configuration.
+    #[command(
+        after_help = "The beacons, as [field] beacons_m numbers them (world frame, \
+        +x towards the outgoing warehouse, +y towards the incoming one):\n  \
+        0  (+0.888, +0.538) m    1  (-0.888, +0.538) m\n  \
+        2  (+0.888, -0.538) m    3  (-0.888, -0.538) m\n\
+        Exit codes with --robot: 0 calibrated, 1 could not start (configuration, device), \
+        2 bad command line, 3 a device failed or the fit was refused, 130 Ctrl-C or SIGTERM. \
+        On every way out the Mega gets zero references and magnet off first."
+    )]
     Calibrate(CalibrateArgs),
 }
 
@@ -86,9 +110,25 @@ struct CalibrateArgs {
     /// rests on the odometry and the nominal layout).
     #[arg(long)]
     no_tape: bool,
-    /// Write the calibrated configuration to this file.
+    /// Write the calibrated configuration to this file: the `--config` file with the
+    /// calibrated keys set (`[lidar] range_scale`, `range_offset_m`, `[robot]
+    /// lidar_yaw_deg`, `[field] beacons_m`).
     #[arg(long, value_name = "FILE")]
     write: Option<PathBuf>,
+    /// On the robot's devices (`--config` is then the robot's file, required): the robot
+    /// stands at the start pose, with machine A's surroundings clear.
+    #[arg(long, requires = "config")]
+    robot: bool,
+    /// A pole-to-pole distance measured with a tape, centre to centre, as `A-B=METRES`
+    /// (e.g. `0-1=1.776`), beacons numbered as below; give all six pairs if you can.
+    #[arg(long, value_name = "A-B=METRES", value_parser = ratf_host::apps::calibrate::robot::parse_tape, requires = "robot")]
+    tape: Vec<ratf_core::calibration::TapeMeasure>,
+    /// Do not ask before driving (the robot stands at the start pose with room around).
+    #[arg(long, requires = "robot")]
+    yes: bool,
+    /// Folder for the drive's recording (with `--robot`).
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Args)]
@@ -106,6 +146,33 @@ struct RunArgs {
     /// Status lines per second (0: none).
     #[arg(long, default_value_t = 4.0)]
     status_hz: f64,
+}
+
+#[derive(Debug, Args)]
+struct CheckArgs {
+    /// The robot's configuration (as for `ratf run`).
+    #[arg(long, value_name = "FILE")]
+    config: PathBuf,
+    /// Ask nothing: the wheels are taken to be off the ground (CI, a robot on a stand);
+    /// the steps that need a person (turning wheels by hand, watching) are skipped.
+    #[arg(long)]
+    yes: bool,
+    /// Print one JSON object with every device's findings as the last line of stdout.
+    #[arg(long)]
+    json: bool,
+    /// How long each device is watched, s.
+    #[arg(long, default_value_t = 2.0)]
+    observe_s: f64,
+    /// The robot is not at the start pose among the beacons (on a stand): the beacons are
+    /// counted but not judged.
+    #[arg(long)]
+    off_field: bool,
+    /// Open-loop PWM of the bring-up, percent of `[mega] pwm_max`.
+    #[arg(long, default_value_t = 20.0)]
+    pwm_percent: f64,
+    /// How long each wheel turns in the bring-up, s.
+    #[arg(long, default_value_t = 1.0)]
+    spin_s: f64,
 }
 
 #[derive(Debug, Args)]
@@ -200,6 +267,10 @@ impl BenchArgs {
 struct LocBenchArgs {
     #[command(flatten)]
     bench: BenchArgs,
+    /// Calibrate each seed's world first (the calibration drive with tape measures) and
+    /// run both estimators with the calibrated configuration.
+    #[arg(long)]
+    calibrated: bool,
 }
 
 #[derive(Debug, Args)]
@@ -333,6 +404,7 @@ fn main() -> anyhow::Result<()> {
         Command::Sim(args) if args.serve_pty.is_some() => serve_pty_command(&args)?,
         Command::Sim(args) => sim_command(&args)?,
         Command::Run(args) => run_command(&args),
+        Command::Check(args) => check_command(&args),
         Command::Referee(args) => referee_command(&args)?,
         Command::Bench(BenchCommand::Navigation(args)) => nav_bench_command(&args)?,
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
@@ -686,16 +758,29 @@ fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Result<()> {
+fn loc_bench_command(
+    LocBenchArgs {
+        bench: args,
+        calibrated,
+    }: &LocBenchArgs,
+) -> anyhow::Result<()> {
     use ratf_host::apps::loc_bench::{self, Metrics, nees_band};
     let config = args.config()?;
     let started = Instant::now();
-    let figures = loc_bench::run(&config, args.seeds, |condition, seed, ours, original| {
-        eprintln!(
-            "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
-            ours.pos_rmse_m, original.pos_rmse_m
-        );
-    })?;
+    if *calibrated {
+        println!("each seed calibrated first (ratf calibrate, with tape)");
+    }
+    let figures = loc_bench::run(
+        &config,
+        args.seeds,
+        *calibrated,
+        |condition, seed, ours, original| {
+            eprintln!(
+                "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
+                ours.pos_rmse_m, original.pos_rmse_m
+            );
+        },
+    )?;
     let row = |name: &str, condition: &str, m: &Metrics| {
         println!(
             "{name:<9} {condition:<8} {:>10.4} {:>12.3} {:>11.4} {:>9.2} {:>11} {:>5}",
@@ -717,6 +802,12 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
     row("ours", "faults", &figures.ours.faults);
     row("original", "default", &figures.original.default);
     row("original", "faults", &figures.original.faults);
+    if *calibrated {
+        println!(
+            "calibrations refused: {} (those runs use the configuration as written)",
+            figures.calibrations_refused
+        );
+    }
     let (lo, hi) = nees_band(3, args.seeds as u32);
     println!(
         "scored after the first 2 s; divergence: > 0.05 m after 2 s; consistent NEES (3 dof, \
@@ -732,6 +823,7 @@ fn loc_bench_command(LocBenchArgs { bench: args }: &LocBenchArgs) -> anyhow::Res
             }
         }
         value["world"] = serde_json::json!(config.sim.world);
+        value["calibrated"] = serde_json::json!(calibrated);
         println!("{value}");
     }
     Ok(())
@@ -993,18 +1085,30 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
     println!("seeds {} to {}", seeds.start(), seeds.end());
+    let mut refused = 0u32;
     let rows = round::bench(
         &config,
         seeds.clone(),
         args.machine_delay_s,
         args.calibrated,
-        |r| {
-            eprintln!(
+        |progress| match progress {
+            round::BenchProgress::CalibrationRefused { seed, error } => {
+                refused += 1;
+                eprintln!(
+                    "seed {seed}: calibration refused, the robot keeps its configuration: {error}"
+                );
+            }
+            round::BenchProgress::Run(r) => eprintln!(
                 "round {} seed {} {:?}: {} points, {} out, {:.1} s, {} collisions, {} given up",
                 r.round, r.seed, r.policy, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
-            );
+            ),
         },
     )?;
+    if args.calibrated {
+        println!(
+            "calibrations refused: {refused} (those robots keep the configuration as written)"
+        );
+    }
     println!(
         "{:<6} {:<9} {:>10} {:>10} {:>10} {:>11} {:>9} {:>5}",
         "round", "policy", "full score", "mean s", "max s", "collisions", "given up", "runs"
@@ -1034,6 +1138,7 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
             serde_json::json!({
                 "world": config.sim.world,
                 "calibrated": args.calibrated,
+                "calibrations_refused": refused,
                 "seeds": [seeds.start(), seeds.end()],
                 "rounds": rows
             })
@@ -1044,6 +1149,9 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
 
 fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     use ratf_host::apps::calibrate;
+    if args.robot {
+        calibrate_on_robot(args);
+    }
     let mut config = load_config(args.config.as_deref())?;
     config.sim.seed = args.seed;
     if let Some(world) = args.world {
@@ -1089,13 +1197,121 @@ fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
         e.beacon_max_mm, e.uncalibrated_beacon_max_mm, e.beacon_layout_max_mm
     );
     if let Some(path) = &args.write {
-        let mut calibrated = config.clone();
-        fit.apply(&mut calibrated);
-        let text = calibrated.to_toml_string()?;
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
-        println!("wrote the calibrated configuration to {}", path.display());
+        write_calibrated(args.config.as_deref(), &config, fit, path)?;
     }
     Ok(())
+}
+
+/// Write `path`: the file `source` (or nothing) with the calibrated keys set.
+fn write_calibrated(
+    source: Option<&Path>,
+    config: &Config,
+    fit: &ratf_core::calibration::Calibration,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let mut file: toml::Table = match source {
+        Some(source) => toml::from_str(
+            &fs::read_to_string(source).with_context(|| format!("reading {}", source.display()))?,
+        )
+        .with_context(|| format!("parsing {}", source.display()))?,
+        None => toml::Table::new(),
+    };
+    fit.write_into(config, &mut file);
+    let text = toml::to_string(&file)?;
+    Config::from_toml_str(&text).context("the calibrated configuration")?;
+    fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote the calibrated configuration to {}", path.display());
+    Ok(())
+}
+
+/// `ratf calibrate --robot`: exits with the documented codes.
+fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
+    use ratf_host::apps::calibrate::robot::{self, RobotCalibrateError, RobotOptions};
+    use ratf_host::apps::run;
+    use ratf_host::devices::Shared;
+    let exit = |code: i32, message: &str| -> ! {
+        eprintln!("ratf calibrate: {message}");
+        std::process::exit(code);
+    };
+    let Some(path) = args.config.as_deref() else {
+        exit(2, "--robot needs --config FILE (the robot's configuration)");
+    };
+    let config = match Config::load_robot(path) {
+        Ok(config) => config,
+        Err(e) => exit(1, &e.to_string()),
+    };
+    if args.tape.is_empty() {
+        eprintln!(
+            "ratf calibrate: no --tape: the range scale rests on the wheels' odometry and the \
+             nominal layout (measure the six pole-to-pole distances for a better fit)"
+        );
+    }
+    if !args.yes {
+        eprint!(
+            "The robot must stand at the start pose (facing the incoming warehouse) with nothing \
+             within 0.3 m of machine A's loop. Drive now? [y/N] "
+        );
+        let mut answer = String::new();
+        let yes = std::io::stdin().read_line(&mut answer).is_ok()
+            && answer.trim().eq_ignore_ascii_case("y");
+        if !yes {
+            exit(130, "not driven");
+        }
+    }
+    if let Err(e) = fs::create_dir_all(&args.out) {
+        exit(1, &format!("creating {}: {e}", args.out.display()));
+    }
+    let shared = Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
+            exit(1, &format!("installing the signal handlers: {e}"));
+        }
+    }
+    let options = RobotOptions {
+        tape: args.tape.clone(),
+        recording: run::timestamped_recording(&args.out, "calibration"),
+    };
+    let result = robot::run_on_robot(&config, &options, &shared);
+    let calibrated = match result {
+        Ok(calibrated) => calibrated,
+        Err(RobotCalibrateError::Setup(e)) => exit(1, &e.to_string()),
+        Err(RobotCalibrateError::Interrupted) => {
+            exit(130, &RobotCalibrateError::Interrupted.to_string())
+        }
+        Err(e) => exit(3, &e.to_string()),
+    };
+    let fit = &calibrated.calibration;
+    println!(
+        "{} stops; residual RMS {:.2} σ, {} iterations; recording {}",
+        calibrated.stops.len(),
+        fit.residual_rms,
+        fit.iterations,
+        calibrated.recording.display()
+    );
+    println!(
+        "range scale   {:.5} ± {:.5}\nrange offset  {:+.1} ± {:.1} mm\nmount yaw     {:.2}° ± {:.2}° (believed {:.2}°)",
+        fit.range_scale,
+        fit.range_scale_std,
+        fit.range_offset_m * 1e3,
+        fit.range_offset_std_m * 1e3,
+        fit.mount_yaw_rad.to_degrees(),
+        fit.mount_yaw_std_rad.to_degrees(),
+        config.robot.lidar_yaw_deg
+    );
+    for (i, (b, std)) in fit.beacons.iter().zip(&fit.beacon_std_m).enumerate() {
+        println!(
+            "beacon {i}      ({:+.4}, {:+.4}) m ± {:.1} mm",
+            b.x,
+            b.y,
+            std * 1e3
+        );
+    }
+    if let Some(out) = &args.write
+        && let Err(e) = write_calibrated(Some(path), &config, fit, out)
+    {
+        exit(1, &format!("{e:#}"));
+    }
+    std::process::exit(0);
 }
 
 fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> {
@@ -1115,10 +1331,19 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
     );
     let started = Instant::now();
     let mut runs = Vec::new();
+    let mut refused = Vec::new();
     for seed in seeds.clone() {
         let mut seeded = config.clone();
         seeded.sim.seed = seed;
-        let run = calibrate::run_in_sim(&seeded, !args.no_tape)?;
+        let run = match calibrate::run_in_sim(&seeded, !args.no_tape) {
+            Ok(run) => run,
+            Err(calibrate::CalibrateError::Fit(error)) => {
+                eprintln!("seed {seed}: refused: {error}");
+                refused.push(seed);
+                continue;
+            }
+            Err(other) => return Err(other.into()),
+        };
         let e = &run.errors;
         eprintln!(
             "seed {seed}: scale {:+.3} %, offset {:+.1} mm, yaw {:+.3}° (was {:+.2}°), \
@@ -1149,8 +1374,9 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
     }
     let collisions: u32 = runs.iter().map(|r| r.collisions).sum();
     println!(
-        "{} runs, {collisions} collisions, {:.1} s wall",
+        "{} fits, {} refused (seeds {refused:?}), {collisions} collisions, {:.1} s wall",
         s.runs,
+        refused.len(),
         started.elapsed().as_secs_f64()
     );
     if args.bench.json {
@@ -1161,6 +1387,7 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
                 "seeds": [seeds.start(), seeds.end()],
                 "tape": !args.no_tape,
                 "summary": s,
+                "refused_seeds": refused,
             })
         );
     }
@@ -1342,4 +1569,82 @@ fn run_command(args: &RunArgs) -> ! {
     );
     println!("the robot was sent zero references and magnet off");
     std::process::exit(report.outcome.exit_code());
+}
+
+/// `ratf check`: exits with the codes its help lists.
+fn check_command(args: &CheckArgs) -> ! {
+    use ratf_host::apps::check::operator::{Operator, Terminal, Unattended};
+    use ratf_host::apps::check::report::EXIT_SETUP;
+    use ratf_host::apps::check::{self, CheckOptions};
+    use ratf_host::devices::Shared;
+    let fail = |message: &str| -> ! {
+        eprintln!("ratf check: {message}");
+        std::process::exit(EXIT_SETUP);
+    };
+    let config = match Config::load_robot(&args.config) {
+        Ok(config) => config,
+        Err(ConfigError::Invalid { issues, .. }) => {
+            eprintln!(
+                "{}: {} invalid value(s):",
+                args.config.display(),
+                issues.len()
+            );
+            for issue in issues {
+                eprintln!("  {issue}");
+            }
+            std::process::exit(EXIT_SETUP);
+        }
+        Err(e) => fail(&e.to_string()),
+    };
+    let interrupt = Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, interrupt.quit_flag()) {
+            fail(&format!("installing the signal handlers: {e}"));
+        }
+    }
+    let previous = std::panic::take_hook();
+    let on_panic = interrupt.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        on_panic.mark_panicked();
+        previous(info);
+    }));
+    let options = CheckOptions {
+        observe_s: args.observe_s,
+        on_field: !args.off_field,
+        pwm_percent: args.pwm_percent,
+        spin_s: args.spin_s,
+    };
+    if let Err(e) = options.validate() {
+        eprintln!("ratf check: {e}");
+        std::process::exit(2);
+    }
+    let mut operator: Box<dyn Operator> = if args.yes {
+        Box::new(Unattended)
+    } else {
+        Box::new(Terminal::default())
+    };
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        check::run_check(&config, &options, &interrupt, operator.as_mut())
+    }));
+    let Ok(report) = outcome else {
+        eprintln!("ratf check: panicked; the robot was sent zero references and magnet off");
+        std::process::exit(ratf_host::apps::run::EXIT_PANIC);
+    };
+    println!("ratf check summary:");
+    for line in report.lines() {
+        println!("  {line}");
+    }
+    if args.json {
+        println!("{}", report.json());
+    }
+    if interrupt.panicked() {
+        eprintln!(
+            "ratf check: a thread panicked; the robot was sent zero references and magnet off"
+        );
+        std::process::exit(ratf_host::apps::run::EXIT_PANIC);
+    }
+    if report.interrupted {
+        eprintln!("ratf check: interrupted; the robot was sent zero references and magnet off");
+    }
+    std::process::exit(report.exit_code());
 }

@@ -6,7 +6,7 @@ use std::sync::mpsc::Sender;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use ratf_core::drivers::imu::{ImuError, ImuSample, Mpu9255};
+use ratf_core::drivers::imu::{Chip, ImuError, ImuSample, Mpu9255};
 use ratf_core::runtime::{DeviceKind, Input, Stamped};
 
 use super::{Clock, LinkState, Message, Shared, report};
@@ -36,6 +36,17 @@ pub fn open_i2c(
     let bus = linux_embedded_hal::I2cdev::new(path).map_err(|e| format!("{path}: {e}"))?;
     let imu = Mpu9255::new(bus, config.driver_config()).map_err(|e| format!("{path}: {e}"))?;
     Ok(Box::new(imu))
+}
+
+/// Open the I2C bus `path` and configure the MPU9255 on it (`[robot.imu]`), telling which
+/// chip answered (its `WHO_AM_I`), for `ratf check`.
+pub fn open_i2c_chip(
+    path: &str,
+    config: &ratf_core::config::ImuConfig,
+) -> Result<(Chip, Box<dyn ImuSource>), String> {
+    let bus = linux_embedded_hal::I2cdev::new(path).map_err(|e| format!("{path}: {e}"))?;
+    let imu = Mpu9255::new(bus, config.driver_config()).map_err(|e| format!("{path}: {e}"))?;
+    Ok((imu.chip(), Box::new(imu)))
 }
 
 /// Read `source` every [`IMU_PERIOD_US`], turn each sample into the robot's axes (`yaw_rad`,

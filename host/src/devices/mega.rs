@@ -15,6 +15,9 @@
 //! - **Host watchdog** (§10.2, on the age of the last reference): if the core produced no
 //!   references for [`DEFAULT_REFERENCE_TIMEOUT_US`], this thread writes zero references
 //!   and magnet off every control period until the core speaks again.
+//! - **Open-loop hold** (`ratf check`): while a [`OpenLoopHold`] is in force this thread
+//!   resends its `K` PWM and `L` every control period instead
+//!   ([`MegaHandle::hold_open_loop`]).
 
 use std::io::{ErrorKind, Read};
 use std::sync::mpsc::Sender;
@@ -23,11 +26,13 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use ratf_core::drivers::mega_link::{
-    DEFAULT_REFERENCE_TIMEOUT_US, MegaEvent, MegaLink, MegaLinkConfig, reference_is_stale,
+    DEFAULT_REFERENCE_TIMEOUT_US, MegaEvent, MegaLink, MegaLinkConfig, MegaLinkStats,
+    reference_is_stale,
 };
 use ratf_core::runtime::{DeviceKind, Input, Stamped, Timestamp, WheelCommand};
 use serialport::SerialPort;
 
+use super::open_loop::{OpenLoopHold, batch_due};
 use super::{Clock, HOST_TICK_PERIOD_US, LinkState, Message, Shared, report};
 
 /// Read timeout of the port: how often the thread looks at the watchdog and the quit flag.
@@ -89,6 +94,12 @@ struct Writer {
     last_write_us: Option<u64>,
     batches_written: u64,
     watchdog_batches: u64,
+    /// The open-loop hold in force, if any.
+    hold: Option<OpenLoopHold>,
+    /// Batches written for holds: all, and those with the magnet on.
+    held_batches: (u64, u64),
+    /// The reading half's link counters, as last published by the thread.
+    link_stats: Option<MegaLinkStats>,
 }
 
 impl std::fmt::Debug for Writer {
@@ -98,6 +109,7 @@ impl std::fmt::Debug for Writer {
             .field("last_reference_us", &self.last_reference_us)
             .field("batches_written", &self.batches_written)
             .field("watchdog_batches", &self.watchdog_batches)
+            .field("hold", &self.hold)
             .finish()
     }
 }
@@ -126,6 +138,26 @@ impl Writer {
             }
         }
     }
+
+    /// Write `hold`'s PWM and magnet now (and count it); false if not writable.
+    fn write_hold(&mut self, hold: &OpenLoopHold, now_us: u64) -> bool {
+        let Some(port) = self.port.as_mut() else {
+            return false;
+        };
+        let bytes = self.link.encode_pwm(hold.pwm, hold.solenoid_on);
+        match port.write_all(&bytes).and_then(|()| port.flush()) {
+            Ok(()) => {
+                self.last_write_us = Some(now_us);
+                self.held_batches.0 += 1;
+                self.held_batches.1 += u64::from(hold.solenoid_on);
+                true
+            }
+            Err(_) => {
+                self.port = None;
+                false
+            }
+        }
+    }
 }
 
 /// The loop's side of the Mega: write references, stop the robot. Cloned into the thread
@@ -146,6 +178,9 @@ impl MegaHandle {
                 last_write_us: None,
                 batches_written: 0,
                 watchdog_batches: 0,
+                hold: None,
+                held_batches: (0, 0),
+                link_stats: None,
             })),
         }
     }
@@ -164,10 +199,38 @@ impl MegaHandle {
         writer.write(command, now.as_us())
     }
 
-    /// Zero references and magnet off, now (best effort: false if the Mega is not
-    /// writable).
+    /// Zero references and magnet off, now, ending any open-loop hold (best effort: false
+    /// if the Mega is not writable).
     pub fn stop(&self, now: Timestamp) -> bool {
-        self.lock().write(&WheelCommand::STOP, now.as_us())
+        let mut writer = self.lock();
+        writer.hold = None;
+        writer.write(&WheelCommand::STOP, now.as_us())
+    }
+
+    /// Hold `hold` (open-loop PWM and the magnet): written now if the Mega is writable, then
+    /// resent by the Mega's thread every control period while it is in force, so the
+    /// Mega's 100 ms watchdog never cuts it. Replaces any earlier hold.
+    pub fn hold_open_loop(&self, hold: OpenLoopHold, now: Timestamp) {
+        let mut writer = self.lock();
+        writer.hold = Some(hold);
+        if hold.active_at(now.as_us()) {
+            writer.write_hold(&hold, now.as_us());
+        }
+    }
+
+    /// Batches written for open-loop holds so far: all, and those with the magnet on.
+    pub fn held_batches_written(&self) -> (u64, u64) {
+        self.lock().held_batches
+    }
+
+    /// The reading half's link counters (corrupt batches, resets, …), as the thread last
+    /// published them; `None` before the port's first read.
+    pub fn link_stats(&self) -> Option<MegaLinkStats> {
+        self.lock().link_stats
+    }
+
+    fn note_link_stats(&self, stats: MegaLinkStats) {
+        self.lock().link_stats = Some(stats);
     }
 
     /// Batches written so far: by the core, and by the watchdog.
@@ -185,9 +248,15 @@ impl MegaHandle {
     }
 
     /// The host watchdog at `now_us`: zero references if the core's last is stale, at most
-    /// once per control period.
+    /// once per control period; an open-loop hold in force is resent instead.
     fn watchdog(&self, now_us: u64, timeout_us: u64) {
         let mut writer = self.lock();
+        if let Some(hold) = writer.hold.filter(|h| h.active_at(now_us)) {
+            if batch_due(writer.last_write_us, now_us, HOST_TICK_PERIOD_US) {
+                writer.write_hold(&hold, now_us);
+            }
+            return;
+        }
         let stale = reference_is_stale(writer.last_reference_us, now_us, timeout_us);
         let due = writer
             .last_write_us
@@ -317,6 +386,7 @@ impl MegaThread {
                             MegaEvent::Reset { .. } => Input::MegaReset,
                         });
                     });
+                    self.handle.note_link_stats(self.link.stats());
                     if !inputs.is_empty() && writer.is_some() {
                         self.handle.install(writer.take());
                         report(&self.tx, Message::Link(DeviceKind::Mega, LinkState::Up));

@@ -12,6 +12,8 @@
 //!   replies only from the configured address).
 //! - [`imu`]: the MPU9255 over I2C, optional, behind [`imu::ImuSource`] so tests can run
 //!   without a bus.
+//! - [`open_loop`]: the Mega's open-loop hold (`K` PWM and the magnet resent every tick),
+//!   for `ratf check`.
 //!
 //! Device threads never stop the robot by themselves: they report faults as inputs
 //! ([`Input::DeviceFault`]), and the core stops driving. [`drill`] makes one of them panic
@@ -21,6 +23,7 @@ pub mod drill;
 pub mod imu;
 pub mod lidar;
 pub mod mega;
+pub mod open_loop;
 pub mod referee;
 
 #[cfg(test)]

@@ -18,6 +18,13 @@ use ratf_core::referee::tracker::{ClientError, RequestTracker, RetryPolicy, Step
 /// is garbage and is cut, then rejected by the parser).
 pub const MAX_DATAGRAM_BYTES: usize = 512;
 
+/// Most datagrams one [`RefereeLink::receive`] hands over. The server answers one request at
+/// a time with one datagram, so a handful is the most a robot ever sees between two calls;
+/// a server (or anything on the venue's network sending from its address) flooding the
+/// link leaves the rest in the operating system's socket buffer for the next call instead
+/// of keeping this one looping and its list growing.
+pub const MAX_DATAGRAMS_PER_RECEIVE: usize = 64;
+
 /// The socket to the server could not be set up or used.
 #[derive(Debug, thiserror::Error)]
 #[error("referee link: {what}: {source}")]
@@ -105,11 +112,12 @@ impl RefereeLink {
         }
     }
 
-    /// Every datagram that has arrived, in order (each cut at [`MAX_DATAGRAM_BYTES`]).
+    /// The datagrams that have arrived, in order, at most [`MAX_DATAGRAMS_PER_RECEIVE`] (the
+    /// rest wait for the next call), each cut at [`MAX_DATAGRAM_BYTES`].
     pub fn receive(&self) -> Vec<Vec<u8>> {
         let mut buf = [0u8; MAX_DATAGRAM_BYTES];
         let mut datagrams = Vec::new();
-        loop {
+        while datagrams.len() < MAX_DATAGRAMS_PER_RECEIVE {
             match self.socket.recv(&mut buf) {
                 Ok(n) => datagrams.push(buf[..n].to_vec()),
                 // An ICMP "port unreachable" from an earlier send: no server there yet, the
@@ -258,6 +266,36 @@ mod tests {
         }
         // 20 + 40 + 80 ms of timeouts at least.
         assert!(waited >= Duration::from_millis(140), "{waited:?}");
+    }
+
+    #[test]
+    fn a_flooding_server_is_read_at_most_64_datagrams_a_call_and_nothing_is_lost() {
+        let server = silent_server();
+        let link = RefereeLink::connect(server.local_addr().unwrap(), 0).unwrap();
+        let to = link.socket.local_addr().unwrap();
+        for k in 0..100u8 {
+            server.send_to(&[b'A' + k % 26], to).unwrap();
+        }
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let mut sizes = Vec::new();
+        let mut received = Vec::new();
+        while received.len() < 100 && Instant::now() < deadline {
+            let datagrams = link.receive();
+            if datagrams.is_empty() {
+                link.wait_readable(Duration::from_millis(10));
+                continue;
+            }
+            sizes.push(datagrams.len());
+            received.extend(datagrams);
+        }
+        assert_eq!(received.len(), 100, "{sizes:?}");
+        assert!(
+            sizes.iter().all(|&n| n <= MAX_DATAGRAMS_PER_RECEIVE),
+            "{sizes:?}"
+        );
+        // In order, none lost: the rest of a flood waits in the socket's buffer.
+        let expected: Vec<Vec<u8>> = (0..100u8).map(|k| vec![b'A' + k % 26]).collect();
+        assert_eq!(received, expected);
     }
 
     #[test]

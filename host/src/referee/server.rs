@@ -18,6 +18,12 @@ use ratf_sim::referee::MockReferee;
 /// Largest request datagram read, bytes (requests are 3–4 letters).
 const MAX_DATAGRAM_BYTES: usize = 512;
 
+/// Most datagrams one [`MockServer::poll`] answers: a robot sends one request at a time, so
+/// a handful is the most a simulation tick sees; a client flooding the server leaves the rest
+/// in the operating system's socket buffer for the next poll instead of keeping this one
+/// looping and its list growing.
+pub const MAX_DATAGRAMS_PER_POLL: usize = 64;
+
 /// One request the server received and what it answered.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Exchange {
@@ -60,11 +66,15 @@ impl MockServer {
         &mut self.referee
     }
 
-    /// Answer every datagram already received, at `now_us`, without blocking.
+    /// Answer the datagrams already received, at most [`MAX_DATAGRAMS_PER_POLL`] (the rest
+    /// wait for the next poll), at `now_us`, without blocking.
     pub fn poll(&mut self, now_us: u64) -> io::Result<Vec<Exchange>> {
         self.socket.set_nonblocking(true)?;
         let mut handled = Vec::new();
-        while let Some(exchange) = self.receive_one(|| now_us)? {
+        while handled.len() < MAX_DATAGRAMS_PER_POLL {
+            let Some(exchange) = self.receive_one(|| now_us)? else {
+                break;
+            };
             handled.push(exchange);
         }
         Ok(handled)
@@ -333,6 +343,47 @@ mod tests {
         assert_eq!(handled.len(), 1);
         assert_eq!(handled[0].request, "CTL");
         assert_eq!(handled[0].reply.as_deref(), Some("T540"));
+    }
+
+    #[test]
+    fn a_flooding_client_is_answered_at_most_64_datagrams_a_poll_and_nothing_is_lost() {
+        let settings = MockSettings::for_round(1, 0, None, 0).unwrap();
+        let mut server = MockServer::bind(loopback(), MockReferee::new(settings)).unwrap();
+        let client = UdpSocket::bind(loopback()).unwrap();
+        for _ in 0..100 {
+            client
+                .send_to(b"PING", server.local_addr().unwrap())
+                .unwrap();
+        }
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let (mut sizes, mut answered) = (Vec::new(), 0);
+        while answered < 100 && Instant::now() < deadline {
+            let handled = server.poll(0).unwrap();
+            assert!(handled.iter().all(|e| e.reply.as_deref() == Some("PONG")));
+            sizes.push(handled.len());
+            answered += handled.len();
+            if handled.is_empty() {
+                // Nothing yet: block for the next datagram (answering it) instead of spinning.
+                let served = server
+                    .wait_and_serve(Duration::from_millis(10), || 0)
+                    .unwrap();
+                answered += usize::from(served.is_some());
+            }
+        }
+        // Every one answered exactly once, and no poll answered more than its bound.
+        let mut replies = 0;
+        let mut buf = [0u8; 16];
+        client
+            .set_read_timeout(Some(Duration::from_millis(500)))
+            .unwrap();
+        while replies < 100 && client.recv_from(&mut buf).is_ok() {
+            replies += 1;
+        }
+        assert_eq!(replies, 100, "{sizes:?}");
+        assert!(
+            sizes.iter().all(|&n| n <= MAX_DATAGRAMS_PER_POLL),
+            "{sizes:?}"
+        );
     }
 
     #[test]

@@ -29,5 +29,8 @@
 mod sightings;
 mod solve;
 
-pub use sightings::{Sighting, Stop, StopRecorder};
-pub use solve::{Calibration, CalibrationError, Priors, TapeMeasure, solve};
+pub use sightings::{MIN_SCANS, SEARCH_RADIUS_M, Sighting, Stop, StopRecorder};
+pub use solve::{
+    BEACON_PLACEMENT_SIGMA_M, Calibration, CalibrationError, MAX_RESIDUAL_RMS, MIN_DRIVE_M,
+    MIN_SIGHTINGS_PER_BEACON, MIN_STOPS, Priors, TAPE_SIGMA_M, TapeMeasure, solve,
+};

@@ -25,6 +25,12 @@ pub const MIN_SIGHTINGS_PER_BEACON: usize = 2;
 /// cannot resolve.
 pub const MIN_DRIVE_M: f64 = 0.2;
 
+/// Largest RMS of the normalised residuals a fit may end with: about 1 when the sightings
+/// and the odometry agree within their error model; well above it, something the model does
+/// not have (a pole moved during the drive, something next to a pole taken for it, a wheel
+/// that slipped) has pulled the fit, and its values must not be written to the robot.
+pub const MAX_RESIDUAL_RMS: f64 = 2.0;
+
 /// Iterations before the fit gives up.
 const MAX_ITERATIONS: usize = 100;
 
@@ -104,7 +110,7 @@ impl Priors {
             range_offset_sigma_m: 0.05,
             mount_yaw_sigma_rad: 10f64.to_radians(),
             odometry_forward_fraction: 0.02,
-            odometry_strafe_fraction: 0.10,
+            odometry_strafe_fraction: 0.20,
             odometry_cross_fraction: 0.01,
             odometry_floor_m: 0.002,
             turn_floor_rad: 0.5f64.to_radians(),
@@ -153,6 +159,44 @@ impl Calibration {
             *slot = [beacon.x, beacon.y];
         }
     }
+
+    /// Set the calibrated keys in `file`, a configuration file's table whose values are
+    /// `config` (`[lidar] range_scale`, `range_offset_m`, `[robot] lidar_yaw_deg`, `[field]
+    /// beacons_m`), keeping every other key the team wrote and no more: a robot's file stays
+    /// a robot's file.
+    pub fn write_into(&self, config: &Config, file: &mut toml::Table) {
+        let mut calibrated = config.clone();
+        self.apply(&mut calibrated);
+        let mut set = |section: &str, key: &str, value: toml::Value| {
+            let entry = file
+                .entry(section)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            if !entry.is_table() {
+                *entry = toml::Value::Table(toml::Table::new());
+            }
+            if let toml::Value::Table(table) = entry {
+                table.insert(key.to_owned(), value);
+            }
+        };
+        set("lidar", "range_scale", calibrated.lidar.range_scale.into());
+        set(
+            "lidar",
+            "range_offset_m",
+            calibrated.lidar.range_offset_m.into(),
+        );
+        set(
+            "robot",
+            "lidar_yaw_deg",
+            calibrated.robot.lidar_yaw_deg.into(),
+        );
+        let beacons = calibrated
+            .field
+            .beacons_m
+            .iter()
+            .map(|&[x, y]| toml::Value::Array(vec![x.into(), y.into()]))
+            .collect();
+        set("field", "beacons_m", toml::Value::Array(beacons));
+    }
 }
 
 /// Why the drive's data cannot be fitted.
@@ -184,6 +228,11 @@ pub enum CalibrationError {
     },
     /// The fit did not converge to a finite solution.
     NoSolution,
+    /// The fit ended with residuals larger than [`MAX_RESIDUAL_RMS`].
+    Inconsistent {
+        /// The RMS of the normalised residuals.
+        residual_rms: f64,
+    },
 }
 
 impl fmt::Display for CalibrationError {
@@ -211,6 +260,12 @@ impl fmt::Display for CalibrationError {
                  different beacon, 0 to 3"
             ),
             Self::NoSolution => write!(f, "the fit did not converge (the sightings disagree)"),
+            Self::Inconsistent { residual_rms } => write!(
+                f,
+                "the sightings and the odometry disagree ({residual_rms:.1} σ RMS, at most \
+                 {MAX_RESIDUAL_RMS} expected): was a pole moved or something standing next to \
+                 one, or did a wheel slip? Nothing was written; clear the poles and drive again"
+            ),
         }
     }
 }
@@ -299,6 +354,10 @@ pub fn solve(stops: &[Stop], priors: &Priors) -> Result<Calibration, Calibration
     let covariance = (j.transpose() * &j)
         .try_inverse()
         .ok_or(CalibrationError::NoSolution)?;
+    let residual_rms = (cost / r.len() as f64).sqrt();
+    if residual_rms > MAX_RESIDUAL_RMS {
+        return Err(CalibrationError::Inconsistent { residual_rms });
+    }
     let std = |i: usize| covariance[(i, i)].max(0.0).sqrt();
     Ok(Calibration {
         range_scale: x[Layout::SCALE],
@@ -313,7 +372,7 @@ pub fn solve(stops: &[Stop], priors: &Priors) -> Result<Calibration, Calibration
         beacon_std_m: (0..layout.beacons)
             .map(|b| std(layout.beacon(b)).max(std(layout.beacon(b) + 1)))
             .collect(),
-        residual_rms: (cost / r.len() as f64).sqrt(),
+        residual_rms,
         iterations,
     })
 }
@@ -629,6 +688,47 @@ mod tests {
                 assert!(error < 3.0 * fit.range_scale_std, "seed {seed}: {fit:?}");
             }
         }
+    }
+
+    #[test]
+    fn a_pole_moved_half_way_through_the_drive_is_refused_not_fitted() {
+        let priors = priors();
+        let mut truth = synthetic(3, &priors, &drive(), 0.001);
+        assert!(solve(&truth.stops, &priors).is_ok());
+        // Someone knocks beacon 2 by 5 cm after the fourth stop: its later sightings are
+        // of a pole the earlier ones do not agree with.
+        for stop in &mut truth.stops[4..] {
+            for s in stop.sightings.iter_mut().filter(|s| s.beacon == 2) {
+                s.range_m += 0.05;
+            }
+        }
+        match solve(&truth.stops, &priors) {
+            Err(CalibrationError::Inconsistent { residual_rms }) => {
+                assert!(residual_rms > MAX_RESIDUAL_RMS)
+            }
+            other => panic!("expected Inconsistent, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_calibration_is_written_into_a_file_keeping_the_team_s_other_keys() {
+        let priors = priors();
+        let truth = synthetic(2, &priors, &drive(), 0.001);
+        let fit = solve(&truth.stops, &priors).unwrap();
+        let text = "[link]\nmega_port = \"/dev/ratf-mega\"\n[lidar]\nscan_rate_hz = 7.0\n";
+        let config = Config::robot_from_toml_str(text).unwrap();
+        let mut file: toml::Table = toml::from_str(text).unwrap();
+        fit.write_into(&config, &mut file);
+        let written = toml::to_string(&file).unwrap();
+        let calibrated = Config::robot_from_toml_str(&written).unwrap();
+        let mut expected = config.clone();
+        fit.apply(&mut expected);
+        assert_eq!(calibrated, expected);
+        assert_eq!(calibrated.link.mega_port, "/dev/ratf-mega");
+        assert!(
+            !written.contains("[sim]") && !written.contains("[navigation]"),
+            "{written}"
+        );
     }
 
     #[test]

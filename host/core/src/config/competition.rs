@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
+use super::limits;
 use crate::mission::MissionConfig;
 
 /// Which software drives the robot: the one enum behind `--policy` and `[competition]
@@ -90,24 +91,62 @@ impl CompetitionConfig {
     pub const MAX_MACHINE_DELAY_S: f64 = 300.0;
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.require("round", (1..=3).contains(&self.round), || {
-            format!("must be 1, 2 or 3 (got {})", self.round)
-        });
+        c.within_int(
+            "round",
+            self.round,
+            1,
+            3,
+            "",
+            "the competition's three rounds (competition.md §2)",
+        );
         c.within(
             "machine_delay_s",
             self.machine_delay_s,
             0.0,
             Self::MAX_MACHINE_DELAY_S,
+            "s",
+            "half the 10-minute slot (competition.md §2)",
         );
-        c.within("poll_period_s", self.poll_period_s, 0.02, 10.0);
-        c.within("planner_pick_s", self.planner_pick_s, 0.0, 60.0);
-        c.within("planner_drop_s", self.planner_drop_s, 0.0, 60.0);
-        c.within("planner_speed_m_s", self.planner_speed_m_s, 0.01, 5.0);
+        c.within(
+            "poll_period_s",
+            self.poll_period_s,
+            0.02,
+            10.0,
+            "s",
+            "from one 50 Hz tick to 10 s, 5dpo's wait between part-list requests",
+        );
+        const ACTION: &str = "a pick or a drop takes seconds; a minute is a tenth of the slot";
+        c.within(
+            "planner_pick_s",
+            self.planner_pick_s,
+            0.0,
+            60.0,
+            "s",
+            ACTION,
+        );
+        c.within(
+            "planner_drop_s",
+            self.planner_drop_s,
+            0.0,
+            60.0,
+            "s",
+            ACTION,
+        );
+        c.within(
+            "planner_speed_m_s",
+            self.planner_speed_m_s,
+            0.01,
+            5.0,
+            "m/s",
+            "the default wheels reach 0.73 m/s; only the order of actions depends on it",
+        );
         c.within(
             "planner_turn_rate_rad_s",
             self.planner_turn_rate_rad_s,
             0.01,
-            50.0,
+            20.0,
+            "rad/s",
+            "the default wheels turn the robot at 4.2 rad/s at most",
         );
     }
 
@@ -119,16 +158,56 @@ impl CompetitionConfig {
 
 impl MissionConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.within("drive_timeout_s", self.drive_timeout_s, 0.1, 600.0);
-        c.within("grip_settle_s", self.grip_settle_s, 0.0, 10.0);
-        c.within("release_settle_s", self.release_settle_s, 0.0, 10.0);
-        c.within("back_out_m", self.back_out_m, 0.0, 0.5);
-        c.within("back_out_speed_m_s", self.back_out_speed_m_s, 0.01, 2.0);
-        c.within("back_out_accel_m_s2", self.back_out_accel_m_s2, 0.01, 20.0);
-        c.require(
+        c.within(
+            "drive_timeout_s",
+            self.drive_timeout_s,
+            0.1,
+            limits::ROUND_SLOT_S,
+            "s",
+            "at most the 10-minute slot (competition.md §2)",
+        );
+        const SETTLE: &str = "the magnet reaches its force in tens of ms";
+        c.within("grip_settle_s", self.grip_settle_s, 0.0, 10.0, "s", SETTLE);
+        c.within(
+            "release_settle_s",
+            self.release_settle_s,
+            0.0,
+            10.0,
+            "s",
+            SETTLE,
+        );
+        c.within(
+            "back_out_m",
+            self.back_out_m,
+            0.0,
+            limits::STRAIGHT_RUN_M,
+            "m",
+            "where machine A's output faces machine B's input, the robot has 0.26 m before its \
+             back reaches the other's dividers",
+        );
+        c.within(
+            "back_out_speed_m_s",
+            self.back_out_speed_m_s,
+            0.01,
+            2.0,
+            "m/s",
+            "the default wheels reach 0.73 m/s",
+        );
+        c.within(
+            "back_out_accel_m_s2",
+            self.back_out_accel_m_s2,
+            0.01,
+            15.0,
+            "m/s²",
+            "1.5 g: more than rubber's friction gives on any floor",
+        );
+        c.within_int(
             "max_attempts",
-            (1..=10).contains(&self.max_attempts),
-            || format!("must be within [1, 10] (got {})", self.max_attempts),
+            self.max_attempts,
+            1,
+            10,
+            "",
+            "ten approaches of one action fill the slot",
         );
     }
 }

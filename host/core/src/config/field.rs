@@ -4,8 +4,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::Checker;
+use super::check::{Checker, num};
 use crate::field::Field;
+use crate::field::geometry::hypot;
 
 /// The floor as measured.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -36,13 +37,14 @@ impl FieldConfig {
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
         for (index, [x, y]) in self.beacons_m.iter().enumerate() {
-            let key = format!("beacons_m[{index}]");
             c.require(
-                &key,
-                x.is_finite() && y.is_finite() && x.hypot(*y) <= Self::MAX_BEACON_DISTANCE_M,
+                &format!("beacons_m[{index}]"),
+                format!("[{}, {}]", num(*x), num(*y)),
+                x.is_finite() && y.is_finite() && hypot(*x, *y) <= Self::MAX_BEACON_DISTANCE_M,
                 || {
                     format!(
-                        "must be finite and within {} m of the floor's centre (got [{x}, {y}])",
+                        "must be finite and within {} m of the floor's centre (the poles stand \
+                         just beyond the floor's corners, about 1.05 m out)",
                         Self::MAX_BEACON_DISTANCE_M
                     )
                 },
@@ -52,8 +54,13 @@ impl FieldConfig {
             for b in a + 1..4 {
                 let [ax, ay] = self.beacons_m[a];
                 let [bx, by] = self.beacons_m[b];
-                c.require("beacons_m", (ax - bx).hypot(ay - by) >= 0.2, || {
-                    format!("beacons {a} and {b} are less than 0.2 m apart")
+                let apart_m = hypot(ax - bx, ay - by);
+                c.require_all("beacons_m", apart_m >= 0.2, || {
+                    format!(
+                        "beacons {a} and {b} are {} m apart: at least 0.2 m, or the localiser \
+                         cannot tell them apart",
+                        num(apart_m)
+                    )
                 });
             }
         }

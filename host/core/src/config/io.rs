@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::Checker;
+use super::check::{Checker, num};
+use crate::drivers::x4::packet::{MAX_DISTANCE_MM, MAX_SCAN_FREQUENCY_HZ};
 
 /// The YDLIDAR X4 (paper §VI; original-system.md §1.3, §3.2).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -50,21 +51,76 @@ impl LidarConfig {
     }
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.within("range_scale", self.range_scale, 0.9, 1.1);
-        c.within("range_offset_m", self.range_offset_m, -0.1, 0.1);
-        c.positive("scan_rate_hz", self.scan_rate_hz);
-        c.within("angle_step_deg", self.angle_step_deg, 0.01, 90.0);
-        c.non_negative("range_noise_std_m", self.range_noise_std_m);
-        c.positive("min_range_m", self.min_range_m);
-        c.positive("max_range_m", self.max_range_m);
-        if self.min_range_m.is_finite() && self.max_range_m.is_finite() {
-            c.require("max_range_m", self.max_range_m > self.min_range_m, || {
+        c.within(
+            "range_scale",
+            self.range_scale,
+            0.9,
+            1.1,
+            "",
+            "the X4's datasheet allows about ±1.5 %, ±3.5 % at worst; ±10 % is a broken unit",
+        );
+        c.within(
+            "range_offset_m",
+            self.range_offset_m,
+            -0.1,
+            0.1,
+            "m",
+            "the datasheet allows about ±10 mm, ±20 mm at worst",
+        );
+        c.within(
+            "scan_rate_hz",
+            self.scan_rate_hz,
+            4.0,
+            MAX_SCAN_FREQUENCY_HZ,
+            "Hz",
+            "the X4 turns at 6–12 Hz as its motor voltage sets (datasheet), and its packets \
+             carry at most 12.7 Hz; 4 Hz leaves room for a slow motor",
+        );
+        c.within(
+            "angle_step_deg",
+            self.angle_step_deg,
+            0.1,
+            2.0,
+            "°",
+            "the X4's 5 kHz ranging gives 0.43° at 6 Hz to 0.86° at 12 Hz; a 90 mm beacon 2 m \
+             away spans 2.6°, so coarser steps leave it fewer than two rays",
+        );
+        c.within(
+            "range_noise_std_m",
+            self.range_noise_std_m,
+            0.0,
+            0.1,
+            "m",
+            "five times the datasheet's 2 cm systematic error",
+        );
+        c.within(
+            "min_range_m",
+            self.min_range_m,
+            0.01,
+            0.2,
+            "m",
+            "the X4 measures from 0.12 m; at the start pose the nearest beacon's surface is \
+             0.22 m from the robot's centre, and a longer minimum would hide it",
+        );
+        let max_m = MAX_DISTANCE_MM / 1000.0;
+        let min_m = if (0.01..=0.2).contains(&self.min_range_m) {
+            self.min_range_m
+        } else {
+            0.0
+        };
+        c.require(
+            "max_range_m",
+            num(self.max_range_m),
+            self.max_range_m.is_finite() && self.max_range_m > min_m && self.max_range_m <= max_m,
+            || {
                 format!(
-                    "must exceed lidar.min_range_m = {} (got {})",
-                    self.min_range_m, self.max_range_m
+                    "must be within lidar.min_range_m = {} … {} m (the X4's packets carry \
+                     distances in 16-bit quarter millimetres; it measures to 10 m)",
+                    num(self.min_range_m),
+                    num(max_m)
                 )
-            });
-        }
+            },
+        );
     }
 }
 
@@ -107,7 +163,7 @@ pub struct LinkConfig {
     /// 2 s (assumption, to be measured). 100 to 60 000.
     pub lidar_spinup_timeout_ms: u32,
     /// A device away (port gone, silent) this long ends `ratf run` with a device failure,
-    /// s. 10: long enough to replug a cable. 1 to 3600.
+    /// s. 10: long enough to replug a cable. 1 to 600 (the 10-minute slot).
     pub give_up_after_s: u32,
 }
 
@@ -129,33 +185,63 @@ impl Default for LinkConfig {
 
 impl LinkConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.non_empty("mega_port", &self.mega_port);
-        c.nonzero("mega_baud", self.mega_baud.into());
-        c.non_empty("lidar_port", &self.lidar_port);
-        c.nonzero("lidar_baud", self.lidar_baud.into());
-        c.within(
+        c.non_empty(
+            "mega_port",
+            &self.mega_port,
+            "the Mega's serial port, e.g. /dev/ttyACM0",
+        );
+        c.within_int(
+            "mega_baud",
+            self.mega_baud,
+            1_200,
+            2_000_000,
+            "baud",
+            "the ATmega2560's UART reaches 2 Mbaud (16 MHz / 8); the firmware uses 115 200",
+        );
+        c.non_empty(
+            "lidar_port",
+            &self.lidar_port,
+            "the lidar's serial port, e.g. /dev/ttyUSB0",
+        );
+        c.within_int(
+            "lidar_baud",
+            self.lidar_baud,
+            1_200,
+            1_000_000,
+            "baud",
+            "the X4's CP2102 bridge reaches 1 Mbaud; the X4 speaks 128 000",
+        );
+        c.within_int(
             "mega_sync_timeout_ms",
-            f64::from(self.mega_sync_timeout_ms),
-            0.0,
-            60_000.0,
+            self.mega_sync_timeout_ms,
+            0,
+            60_000,
+            "ms",
+            "the bootloader takes 1–2 s after the reset on opening",
         );
-        c.within(
+        c.within_int(
             "reconnect_period_ms",
-            f64::from(self.reconnect_period_ms),
-            10.0,
-            60_000.0,
+            self.reconnect_period_ms,
+            10,
+            60_000,
+            "ms",
+            "often enough to catch a replugged cable, not so often that it spins",
         );
-        c.within(
+        c.within_int(
             "lidar_spinup_timeout_ms",
-            f64::from(self.lidar_spinup_timeout_ms),
-            100.0,
-            60_000.0,
+            self.lidar_spinup_timeout_ms,
+            100,
+            60_000,
+            "ms",
+            "the X4 spins up within about 2 s",
         );
-        c.within(
+        c.within_int(
             "give_up_after_s",
-            f64::from(self.give_up_after_s),
-            1.0,
-            3_600.0,
+            self.give_up_after_s,
+            1,
+            600,
+            "s",
+            "long enough to replug a cable, at most the 10-minute slot (competition.md §2)",
         );
     }
 }
@@ -191,9 +277,34 @@ impl Default for RefereeConfig {
 
 impl RefereeConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.non_empty("server_address", &self.server_address);
-        c.nonzero("server_port", self.server_port.into());
-        c.nonzero("request_timeout_ms", self.request_timeout_ms.into());
-        c.nonzero("max_tries", self.max_tries.into());
+        c.non_empty(
+            "server_address",
+            &self.server_address,
+            "the organisers' server, handed out at the venue",
+        );
+        c.within_int(
+            "server_port",
+            self.server_port,
+            1,
+            65_535,
+            "",
+            "a UDP port; 0 is not one a server listens on",
+        );
+        c.within_int(
+            "request_timeout_ms",
+            self.request_timeout_ms,
+            10,
+            10_000,
+            "ms",
+            "a Wi-Fi round trip takes milliseconds to tens of ms; 5dpo waited at most 10 s",
+        );
+        c.within_int(
+            "max_tries",
+            self.max_tries,
+            1,
+            20,
+            "",
+            "with the timeout doubling to ×8, 20 tries of 0.4 s take 57 s",
+        );
     }
 }

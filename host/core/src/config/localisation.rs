@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::Checker;
+use super::check::{Checker, num};
+use super::limits;
 
 /// How a beacon's centre is estimated from its points (see `localisation::beacons`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -156,81 +157,261 @@ impl Default for LocalisationConfig {
 }
 
 impl LocalisationConfig {
+    /// Most odometry steps kept: 1000 is 20 s at 50 Hz, far more than any scan is late
+    /// (one revolution plus the link's delay, under 0.3 s), at 216 bytes a step.
+    pub const MAX_HISTORY_STEPS: usize = 1_000;
+
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.positive("initial_position_std_m", self.initial_position_std_m);
+        self.check_noise(c);
+        self.check_extraction(c);
+        self.check_gates(c);
+    }
+
+    /// The motion and sensor noise model.
+    fn check_noise(&self, c: &mut Checker<'_>) {
+        c.within(
+            "initial_position_std_m",
+            self.initial_position_std_m,
+            0.001,
+            2.0,
+            "m",
+            "the floor is 1.7 × 1.2 m: a wider σ says nothing more",
+        );
         c.within(
             "initial_heading_std_deg",
             self.initial_heading_std_deg,
             0.01,
             180.0,
+            "°",
+            "half a turn says nothing more",
         );
-        c.positive(
+        c.within(
             "initial_gyro_bias_std_rad_s",
             self.initial_gyro_bias_std_rad_s,
+            1e-6,
+            0.5,
+            "rad/s",
+            "the MPU-9250's zero-rate tolerance is ±5 °/s = 0.09 rad/s",
         );
-        c.non_negative(
+        c.within(
             "gyro_bias_walk_rad_s_sqrt_s",
             self.gyro_bias_walk_rad_s_sqrt_s,
+            0.0,
+            0.01,
+            "rad/s/√s",
+            "a hundred times the assumed thermal drift; more is a broken gyro",
         );
-        c.non_negative("gyro_scale_std", self.gyro_scale_std);
-        c.non_negative("translation_var_m2_per_m", self.translation_var_m2_per_m);
-        c.non_negative(
+        c.within(
+            "gyro_scale_std",
+            self.gyro_scale_std,
+            0.0,
+            0.2,
+            "",
+            "the datasheet's scale tolerance is ±3 %",
+        );
+        const TRANSLATION: &str = "σ = 1 m per metre or radian says the wheels tell nothing";
+        c.within(
+            "translation_var_m2_per_m",
+            self.translation_var_m2_per_m,
+            0.0,
+            1.0,
+            "m²/m",
+            TRANSLATION,
+        );
+        c.within(
             "translation_var_m2_per_rad",
             self.translation_var_m2_per_rad,
+            0.0,
+            1.0,
+            "m²/rad",
+            TRANSLATION,
         );
-        c.non_negative(
+        const HEADING: &str = "σ = π rad per radian or metre says the wheels tell nothing";
+        c.within(
             "wheel_heading_var_rad2_per_rad",
             self.wheel_heading_var_rad2_per_rad,
+            0.0,
+            10.0,
+            "rad²/rad",
+            HEADING,
         );
-        c.non_negative(
+        c.within(
             "wheel_heading_var_rad2_per_m",
             self.wheel_heading_var_rad2_per_m,
+            0.0,
+            10.0,
+            "rad²/m",
+            HEADING,
         );
-        c.positive("slip_threshold_rad", self.slip_threshold_rad);
+        c.within(
+            "slip_threshold_rad",
+            self.slip_threshold_rad,
+            1e-5,
+            1.0,
+            "rad",
+            "a yaw difference over one 20 ms step: at the 3.5 rad/s limit a step turns 0.07 rad",
+        );
         c.within(
             "slip_translation_var_factor",
             self.slip_translation_var_factor,
             1.0,
             1e6,
+            "",
+            "σ × 1000 at most",
         );
-        c.nonzero("gyro_max_gap_us", self.gyro_max_gap_us);
-        c.require("history_steps", self.history_steps >= 2, || {
-            format!("must be at least 2 (got {})", self.history_steps)
-        });
-        c.positive("range_noise_std_m", self.range_noise_std_m);
-        c.positive("range_floor_std_m", self.range_floor_std_m);
-        c.positive("bearing_floor_std_deg", self.bearing_floor_std_deg);
-        c.positive("association_radius_m", self.association_radius_m);
-        c.non_negative("association_sigmas", self.association_sigmas);
-        c.require(
+        c.within_int(
+            "gyro_max_gap_us",
+            self.gyro_max_gap_us,
+            i128::from(limits::IMU_READ_PERIOD_US),
+            1_000_000,
+            "µs",
+            "at least the IMU's 5 ms read period, or most steps find no gyro data; 1 s at most",
+        );
+        c.within_int(
+            "history_steps",
+            self.history_steps as u64,
+            2,
+            Self::MAX_HISTORY_STEPS as i128,
+            "steps",
+            "20 s at 50 Hz, far more than a scan is ever late; each step keeps 216 bytes",
+        );
+        c.within(
+            "range_noise_std_m",
+            self.range_noise_std_m,
+            1e-4,
+            0.5,
+            "m",
+            "the X4's noise is about 1 cm",
+        );
+        c.within(
+            "range_floor_std_m",
+            self.range_floor_std_m,
+            1e-4,
+            0.5,
+            "m",
+            "the X4's systematic error is at most 2 cm",
+        );
+        c.within(
+            "bearing_floor_std_deg",
+            self.bearing_floor_std_deg,
+            0.001,
+            10.0,
+            "°",
+            "the X4's zero-angle error is at most ±3°",
+        );
+    }
+
+    /// Beacon extraction from a scan.
+    fn check_extraction(&self, c: &mut Checker<'_>) {
+        c.within(
+            "association_radius_m",
+            self.association_radius_m,
+            0.01,
+            0.5,
+            "m",
+            "the nearest two beacons are 1.08 m apart: a radius beyond half of that reaches the \
+             next",
+        );
+        let association_m = if (0.01..=0.5).contains(&self.association_radius_m) {
+            self.association_radius_m
+        } else {
+            0.0
+        };
+        c.within(
             "max_search_radius_m",
-            self.max_search_radius_m.is_finite()
-                && self.max_search_radius_m >= self.association_radius_m,
-            || {
-                format!(
-                    "must be finite and at least localisation.association_radius_m = {} (got {})",
-                    self.association_radius_m, self.max_search_radius_m
-                )
-            },
+            self.max_search_radius_m,
+            association_m,
+            1.0,
+            "m",
+            "at least localisation.association_radius_m; beyond 1 m the search around one \
+             beacon takes in the next",
         );
-        c.positive("cluster_gap_m", self.cluster_gap_m);
-        c.require("min_points", self.min_points >= 1, || {
-            "must be at least 1".to_owned()
-        });
-        c.within("min_point_fraction", self.min_point_fraction, 0.0, 1.0);
-        c.within("max_point_factor", self.max_point_factor, 1.0, 100.0);
-        c.non_negative("extent_margin_m", self.extent_margin_m);
-        c.positive("max_fit_rms_m", self.max_fit_rms_m);
-        c.positive("gate_chi2", self.gate_chi2);
-        c.nonzero("relock_after_scans", u64::from(self.relock_after_scans));
+        c.within(
+            "association_sigmas",
+            self.association_sigmas,
+            0.0,
+            10.0,
+            "",
+            "10 σ already takes in anything within the radius",
+        );
+        c.within(
+            "cluster_gap_m",
+            self.cluster_gap_m,
+            0.001,
+            0.2,
+            "m",
+            "a gap wider than two beacons joins a beacon to whatever stands behind it",
+        );
+        c.within_int(
+            "min_points",
+            self.min_points as u64,
+            1,
+            40,
+            "points",
+            "a 90 mm beacon 0.27 m away spans 38 rays at 0.5°; more are never met",
+        );
+        c.within(
+            "min_point_fraction",
+            self.min_point_fraction,
+            0.0,
+            1.0,
+            "",
+            "a fraction of the points a beacon gives",
+        );
+        c.within(
+            "max_point_factor",
+            self.max_point_factor,
+            1.0,
+            100.0,
+            "",
+            "a multiple of the points a beacon gives",
+        );
+        c.within(
+            "extent_margin_m",
+            self.extent_margin_m,
+            0.0,
+            0.5,
+            "m",
+            "beyond 0.5 m a cluster as wide as a person passes for a 90 mm beacon",
+        );
+        c.within(
+            "max_fit_rms_m",
+            self.max_fit_rms_m,
+            1e-4,
+            0.1,
+            "m",
+            "ten times the X4's range noise",
+        );
+    }
+
+    /// Gates and recovery.
+    fn check_gates(&self, c: &mut Checker<'_>) {
+        c.within(
+            "gate_chi2",
+            self.gate_chi2,
+            0.1,
+            100.0,
+            "",
+            "χ²(2): 9.21 is the 99 % quantile, 27.6 the 99.9999 %; 100 gates nothing",
+        );
+        c.within_int(
+            "relock_after_scans",
+            self.relock_after_scans,
+            1,
+            100,
+            "scans",
+            "100 scans is 14 s at 7 Hz, a quarter of a round",
+        );
         c.require(
             "inflate_above_median_nis",
-            self.inflate_above_median_nis.is_finite() && self.inflate_above_median_nis > 1.39,
+            num(self.inflate_above_median_nis),
+            self.inflate_above_median_nis.is_finite()
+                && self.inflate_above_median_nis > 1.39
+                && self.inflate_above_median_nis <= 100.0,
             || {
-                format!(
-                    "must be a finite number above the χ²(2) median 1.39 (got {})",
-                    self.inflate_above_median_nis
-                )
+                "must be above the χ²(2) median 1.39 and at most 100 (the median NIS of a \
+                 consistent filter is 1.39)"
+                    .to_owned()
             },
         );
     }

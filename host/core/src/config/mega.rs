@@ -5,6 +5,7 @@ use ratf_protocol::pi::{DeadZone, PiConfig, PiGains};
 use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
+use super::limits;
 
 /// The firmware's control-loop numbers. Defaults = [`McuConfig::default`] (the original's
 /// timing and limits, original-system.md §2.2, and the PI gains of
@@ -88,18 +89,104 @@ impl MegaConfig {
     }
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.nonzero("control_period_us", self.control_period_us.into());
-        c.nonzero("watchdog_timeout_us", self.watchdog_timeout_us.into());
-        c.require("pwm_max", (1..=255).contains(&self.pwm_max), || {
-            format!("must be within [1, 255] (got {})", self.pwm_max)
-        });
-        c.require("pwm_slew_per_tick", self.pwm_slew_per_tick > 0, || {
-            format!("must be > 0 (got {})", self.pwm_slew_per_tick)
-        });
-        c.non_negative("kc_v_per_rad_s", self.kc_v_per_rad_s);
-        c.non_negative("ki_v_per_rad", self.ki_v_per_rad);
-        c.non_negative("kf_v_per_rad_s", self.kf_v_per_rad_s);
-        c.non_negative("dead_zone_v0_v", self.dead_zone_v0_v);
-        c.non_negative("dead_zone_vd_v", self.dead_zone_vd_v);
+        c.within_int(
+            "control_period_us",
+            self.control_period_us,
+            1_000,
+            100_000,
+            "µs",
+            "the firmware closes control windows on its 1 ms time base (20 ms on the board); \
+             slower than 10 Hz the wheel PI cannot follow the motor's 0.1 s time constant",
+        );
+        // Only once in range, so a wild value gets one issue.
+        let in_range = (1_000..=100_000).contains(&self.control_period_us);
+        c.require(
+            "control_period_us",
+            self.control_period_us,
+            !in_range || self.control_period_us.is_multiple_of(1_000),
+            || {
+                "must be a whole number of milliseconds: the firmware's time base ticks every \
+                1 ms (firmware-mega/README.md)"
+                    .to_owned()
+            },
+        );
+        let host_period_us = i128::from(limits::HOST_REFERENCE_PERIOD_US);
+        c.within_int(
+            "watchdog_timeout_us",
+            self.watchdog_timeout_us,
+            2 * host_period_us,
+            1_000_000,
+            "µs",
+            "at least two of the host's 50 Hz reference batches, or the Mega stops the \
+             wheels between them; at most 1 s, in which a runaway robot crosses half the floor",
+        );
+        c.within_int(
+            "pwm_max",
+            self.pwm_max,
+            1,
+            255,
+            "",
+            "the motor shield library's 8-bit PWM range",
+        );
+        c.within_int(
+            "pwm_slew_per_tick",
+            self.pwm_slew_per_tick,
+            1,
+            510,
+            "per tick",
+            "510 is a full reversal from -255 to +255 in one tick, i.e. no limit",
+        );
+        c.within(
+            "kc_v_per_rad_s",
+            self.kc_v_per_rad_s,
+            0.0,
+            100.0,
+            "V/(rad/s)",
+            "one encoder count per 20 ms tick is 0.11 rad/s; a gain above 12.6 V / 0.11 rad/s \
+             turns one count of jitter into the full battery voltage",
+        );
+        c.within(
+            "ki_v_per_rad",
+            self.ki_v_per_rad,
+            0.0,
+            5_000.0,
+            "V/rad",
+            "the largest Kc over an integral time of one 20 ms tick",
+        );
+        c.within(
+            "kf_v_per_rad_s",
+            self.kf_v_per_rad_s,
+            0.0,
+            12.6,
+            "V/(rad/s)",
+            "beyond it a reference of 1 rad/s alone asks for more than a full 3S battery",
+        );
+        c.within_int(
+            "telemetry_latency_us",
+            self.telemetry_latency_us,
+            0,
+            100_000,
+            "µs",
+            "the firmware sends a tick's batch within that tick: 2080 µs measured; the link \
+             check below bounds it by mega.control_period_us",
+        );
+        const DEAD_ZONE: &str =
+            "a voltage the motor shield can give: its bridges take at most 13.5 V";
+        c.within(
+            "dead_zone_v0_v",
+            self.dead_zone_v0_v,
+            0.0,
+            limits::MOTOR_SUPPLY_MAX_V,
+            "V",
+            DEAD_ZONE,
+        );
+        c.within(
+            "dead_zone_vd_v",
+            self.dead_zone_vd_v,
+            0.0,
+            limits::MOTOR_SUPPLY_MAX_V,
+            "V",
+            DEAD_ZONE,
+        );
     }
 }

@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::Checker;
+use super::check::{Checker, num};
+use super::limits;
 
 /// First-order DC motor + gearbox model, per wheel: ω̇ = (K·(V − dead zone) − ω)/τ.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -49,23 +50,57 @@ impl MotorConfig {
     }
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.positive("gain_rad_s_per_v", self.gain_rad_s_per_v);
-        c.positive("design_gain_rad_s_per_v", self.design_gain_rad_s_per_v);
-        c.positive("time_constant_s", self.time_constant_s);
-        c.non_negative("dead_zone_v", self.dead_zone_v);
-        c.positive("battery_voltage_v", self.battery_voltage_v);
-        if self.battery_voltage_v.is_finite() && self.dead_zone_v.is_finite() {
-            c.require(
-                "dead_zone_v",
-                self.dead_zone_v < self.battery_voltage_v,
-                || {
-                    format!(
-                        "must be below motor.battery_voltage_v = {} (got {})",
-                        self.battery_voltage_v, self.dead_zone_v
-                    )
-                },
-            );
-        }
+        const GAIN: &str = "a geared wheel motor: 2.19 for the DFRobot 251 rpm at 12 V; 50 \
+                            would be 5700 rpm at 12 V, an ungeared motor";
+        c.within(
+            "gain_rad_s_per_v",
+            self.gain_rad_s_per_v,
+            0.1,
+            50.0,
+            "(rad/s)/V",
+            GAIN,
+        );
+        c.within(
+            "design_gain_rad_s_per_v",
+            self.design_gain_rad_s_per_v,
+            0.1,
+            50.0,
+            "(rad/s)/V",
+            GAIN,
+        );
+        c.within(
+            "time_constant_s",
+            self.time_constant_s,
+            0.001,
+            10.0,
+            "s",
+            "a wheel motor settles in tens to hundreds of ms (0.1 s measured on the floor)",
+        );
+        c.within(
+            "battery_voltage_v",
+            self.battery_voltage_v,
+            4.5,
+            limits::MOTOR_SUPPLY_MAX_V,
+            "V",
+            "the Motor Shield V2's TB6612 bridges take 4.5–13.5 V; a 3S LiPo is 9.9–12.6 V",
+        );
+        let battery_v = if (4.5..=limits::MOTOR_SUPPLY_MAX_V).contains(&self.battery_voltage_v) {
+            self.battery_voltage_v
+        } else {
+            limits::MOTOR_SUPPLY_MAX_V
+        };
+        c.require(
+            "dead_zone_v",
+            num(self.dead_zone_v),
+            self.dead_zone_v.is_finite() && (0.0..battery_v).contains(&self.dead_zone_v),
+            || {
+                format!(
+                    "must be within 0 … {} V, below motor.battery_voltage_v (no PWM would \
+                     turn the wheel)",
+                    num(battery_v)
+                )
+            },
+        );
     }
 }
 
@@ -92,7 +127,21 @@ impl Default for TractionConfig {
 
 impl TractionConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.positive("friction_coefficient", self.friction_coefficient);
-        c.positive("robot_mass_kg", self.robot_mass_kg);
+        c.within(
+            "friction_coefficient",
+            self.friction_coefficient,
+            0.05,
+            2.0,
+            "",
+            "rubber on paper is 0.6–0.8; 2 is beyond rubber on any dry floor",
+        );
+        c.within(
+            "robot_mass_kg",
+            self.robot_mass_kg,
+            0.3,
+            15.0,
+            "kg",
+            "a 30 × 30 × 30 cm robot with four motors, a battery and two computers",
+        );
     }
 }

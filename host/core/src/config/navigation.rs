@@ -4,6 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
+use super::limits;
 
 /// Limits and gains of the path follower. Defaults derived from the motor and traction
 /// models (`[robot]`, `[motor]`, `[traction]`); each doc comment gives the derivation.
@@ -117,45 +118,186 @@ impl Default for NavigationConfig {
 
 impl NavigationConfig {
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.positive("max_speed_m_s", self.max_speed_m_s);
-        c.positive("max_accel_m_s2", self.max_accel_m_s2);
-        c.positive("max_decel_m_s2", self.max_decel_m_s2);
-        c.positive("max_yaw_rate_rad_s", self.max_yaw_rate_rad_s);
-        c.positive("corner_blend_m", self.corner_blend_m);
-        c.positive("cross_track_gain_per_s", self.cross_track_gain_per_s);
-        c.positive("heading_gain_per_s", self.heading_gain_per_s);
-        c.non_negative("lag_compensation_s", self.lag_compensation_s);
-        c.positive("position_gain_per_s", self.position_gain_per_s);
-        c.positive("goal_tolerance_m", self.goal_tolerance_m);
+        self.check_motion(c);
+        self.check_gains(c);
+        self.check_docking(c);
+        self.check_route(c);
+    }
+
+    /// Speeds and accelerations.
+    fn check_motion(&self, c: &mut Checker<'_>) {
+        c.within(
+            "max_speed_m_s",
+            self.max_speed_m_s,
+            0.01,
+            5.0,
+            "m/s",
+            "robot.max_wheel_speed_rad_s bounds it further (see there)",
+        );
+        const ACCEL: &str = "1.5 g: more than rubber's friction gives on any floor";
+        c.within(
+            "max_accel_m_s2",
+            self.max_accel_m_s2,
+            0.01,
+            15.0,
+            "m/s²",
+            ACCEL,
+        );
+        c.within(
+            "max_decel_m_s2",
+            self.max_decel_m_s2,
+            0.01,
+            15.0,
+            "m/s²",
+            ACCEL,
+        );
+        c.within(
+            "max_yaw_rate_rad_s",
+            self.max_yaw_rate_rad_s,
+            0.01,
+            20.0,
+            "rad/s",
+            "five times the 4.2 rad/s the default wheels reach turning on the spot",
+        );
+        c.within(
+            "corner_blend_m",
+            self.corner_blend_m,
+            0.001,
+            0.5,
+            "m",
+            "a corner spread over more than 0.5 m cuts through the graph's 0.15 m rows",
+        );
+    }
+
+    /// The follower's gains.
+    fn check_gains(&self, c: &mut Checker<'_>) {
+        const GAIN: &str = "at 50/s the 50 Hz loop corrects the whole error in one 20 ms tick; \
+                            a larger gain overshoots every tick";
+        c.within(
+            "cross_track_gain_per_s",
+            self.cross_track_gain_per_s,
+            0.01,
+            50.0,
+            "1/s",
+            GAIN,
+        );
+        c.within(
+            "heading_gain_per_s",
+            self.heading_gain_per_s,
+            0.01,
+            50.0,
+            "1/s",
+            GAIN,
+        );
+        c.within(
+            "position_gain_per_s",
+            self.position_gain_per_s,
+            0.01,
+            50.0,
+            "1/s",
+            GAIN,
+        );
+        c.within(
+            "lag_compensation_s",
+            self.lag_compensation_s,
+            0.0,
+            1.0,
+            "s",
+            "ten times the motor's 0.1 s time constant",
+        );
+    }
+
+    /// Arrival and docking.
+    fn check_docking(&self, c: &mut Checker<'_>) {
+        c.within(
+            "goal_tolerance_m",
+            self.goal_tolerance_m,
+            0.0005,
+            0.025,
+            "m",
+            "the switch closes within ±25 mm of the plate",
+        );
         c.within(
             "goal_heading_tolerance_deg",
             self.goal_heading_tolerance_deg,
-            1e-3,
-            45.0,
+            0.001,
+            15.0,
+            "°",
+            "the switch closes within ±15°",
         );
-        c.non_negative("dock_length_m", self.dock_length_m);
-        c.positive("dock_speed_m_s", self.dock_speed_m_s);
-        c.within("dock_creep_m", self.dock_creep_m, 0.0, 0.15);
+        c.within(
+            "dock_length_m",
+            self.dock_length_m,
+            0.0,
+            limits::STRAIGHT_RUN_M,
+            "m",
+            "the approach starts in front of the slot: where machine A's output faces machine \
+             B's input, the robot has 0.26 m before its back reaches the other's dividers",
+        );
+        let max_speed = if (0.01..=5.0).contains(&self.max_speed_m_s) {
+            self.max_speed_m_s
+        } else {
+            5.0
+        };
+        c.within(
+            "dock_speed_m_s",
+            self.dock_speed_m_s,
+            0.005,
+            max_speed,
+            "m/s",
+            "at most navigation.max_speed_m_s",
+        );
+        c.within(
+            "dock_creep_m",
+            self.dock_creep_m,
+            0.0,
+            0.15,
+            "m",
+            "at the pick pose the robot's front is 75 mm from the slot's back wall; twice that \
+             passes any part",
+        );
         c.within(
             "dock_creep_speed_m_s",
             self.dock_creep_speed_m_s,
             0.005,
             0.3,
+            "m/s",
+            "the robot must stop within millimetres once the switch closes",
         );
-        c.non_negative("rotate_after_m", self.rotate_after_m);
-        c.non_negative("align_before_m", self.align_before_m);
-        c.non_negative("shortcut_margin_m", self.shortcut_margin_m);
-        if self.dock_speed_m_s.is_finite() && self.max_speed_m_s.is_finite() {
-            c.require(
-                "dock_speed_m_s",
-                self.dock_speed_m_s <= self.max_speed_m_s,
-                || {
-                    format!(
-                        "must not exceed navigation.max_speed_m_s = {} (got {})",
-                        self.max_speed_m_s, self.dock_speed_m_s
-                    )
-                },
-            );
-        }
+    }
+
+    /// Where the route may turn, and shortcuts.
+    fn check_route(&self, c: &mut Checker<'_>) {
+        c.within(
+            "rotate_after_m",
+            self.rotate_after_m,
+            0.0,
+            limits::FLOOR_DIAGONAL_M,
+            "m",
+            "no route is longer than the floor's 2.3 m diagonal in a straight line",
+        );
+        // A dock length out of its own range is reported there, not here again.
+        let dock_m = if (0.0..=limits::STRAIGHT_RUN_M).contains(&self.dock_length_m) {
+            self.dock_length_m
+        } else {
+            0.0
+        };
+        c.within(
+            "align_before_m",
+            self.align_before_m,
+            dock_m,
+            limits::FLOOR_DIAGONAL_M,
+            "m",
+            "at least navigation.dock_length_m, so the robot enters a slot square, and no more \
+             than the floor's diagonal",
+        );
+        c.within(
+            "shortcut_margin_m",
+            self.shortcut_margin_m,
+            0.0,
+            0.2,
+            "m",
+            "the graph's rows leave 10–20 mm: beyond 0.2 m no shortcut is ever free",
+        );
     }
 }

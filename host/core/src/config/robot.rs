@@ -140,46 +140,156 @@ impl RobotConfig {
     }
 
     pub(crate) fn check(&self, c: &mut Checker<'_>) {
-        c.positive(
+        const BODY: &str = "inside the 30 × 30 cm robot the rules allow (competition.md §2); \
+                            the mecanum equations divide by it";
+        c.within(
             "front_back_wheel_distance_m",
             self.front_back_wheel_distance_m,
+            0.01,
+            0.30,
+            "m",
+            BODY,
         );
-        c.positive(
+        c.within(
             "left_right_wheel_distance_m",
             self.left_right_wheel_distance_m,
+            0.01,
+            0.30,
+            "m",
+            BODY,
         );
-        c.positive("wheel_diameter_m", self.wheel_diameter_m);
-        c.positive("footprint_length_m", self.footprint_length_m);
-        c.positive("footprint_width_m", self.footprint_width_m);
+        c.within(
+            "wheel_diameter_m",
+            self.wheel_diameter_m,
+            0.01,
+            0.30,
+            "m",
+            "a wheel of the 30 cm tall robot (competition.md §2); speeds divide by it",
+        );
+        const FOOTPRINT: &str = "the rules' 30 cm at the start (competition.md §2), and up to \
+                                 10 cm more unfolded later (checked only at the start since 2024)";
+        c.within(
+            "footprint_length_m",
+            self.footprint_length_m,
+            0.05,
+            0.40,
+            "m",
+            FOOTPRINT,
+        );
+        c.within(
+            "footprint_width_m",
+            self.footprint_width_m,
+            0.05,
+            0.40,
+            "m",
+            FOOTPRINT,
+        );
         for (i, s) in self.wheel_forward_sign.iter().enumerate() {
-            c.require(&format!("wheel_forward_sign[{i}]"), s.abs() == 1, || {
-                format!("must be +1 or -1 (got {s})")
+            c.require(&format!("wheel_forward_sign[{i}]"), s, s.abs() == 1, || {
+                "must be +1 or -1 (the sign of the wire speed that rolls that wheel forward)"
+                    .to_owned()
             });
         }
-        c.positive("max_wheel_speed_rad_s", self.max_wheel_speed_rad_s);
-        c.positive("ticks_per_wheel_rev", self.ticks_per_wheel_rev);
-        c.finite("lidar_x_m", self.lidar_x_m);
-        c.finite("lidar_y_m", self.lidar_y_m);
-        c.within("lidar_yaw_deg", self.lidar_yaw_deg, -360.0, 360.0);
-        c.positive("lidar_height_m", self.lidar_height_m);
-        c.non_empty("imu.i2c_device", &self.imu.i2c_device);
-        c.require("imu.i2c_address", self.imu.i2c_address < 0x80, || {
-            format!("must be a 7-bit address (got {})", self.imu.i2c_address)
-        });
+        c.within(
+            "max_wheel_speed_rad_s",
+            self.max_wheel_speed_rad_s,
+            0.1,
+            100.0,
+            "rad/s",
+            "a geared wheel motor: the DFRobot's is 26 rad/s at 12 V; 100 rad/s is 955 rpm",
+        );
+        c.within(
+            "ticks_per_wheel_rev",
+            self.ticks_per_wheel_rev,
+            1.0,
+            100_000.0,
+            "",
+            "encoder counts × 4 × gearbox: 2803.2 on this robot; the Mega's counters and \
+             the simulator's per-tick deltas stay exact well below 100 000",
+        );
+        self.check_lidar_mount(c);
+        self.check_imu(c);
+    }
+
+    fn check_lidar_mount(&self, c: &mut Checker<'_>) {
+        // A footprint out of its own range is reported there; bound the mount by the largest.
+        let half = |m: f64| {
+            if (0.05..=0.40).contains(&m) {
+                m / 2.0
+            } else {
+                0.20
+            }
+        };
+        let half_length = half(self.footprint_length_m);
+        let half_width = half(self.footprint_width_m);
+        c.within(
+            "lidar_x_m",
+            self.lidar_x_m,
+            -half_length,
+            half_length,
+            "m",
+            "the lidar stands on the robot: within half of robot.footprint_length_m",
+        );
+        c.within(
+            "lidar_y_m",
+            self.lidar_y_m,
+            -half_width,
+            half_width,
+            "m",
+            "the lidar stands on the robot: within half of robot.footprint_width_m",
+        );
+        c.within(
+            "lidar_yaw_deg",
+            self.lidar_yaw_deg,
+            -360.0,
+            360.0,
+            "°",
+            "one turn either way",
+        );
+        c.within(
+            "lidar_height_m",
+            self.lidar_height_m,
+            0.02,
+            0.50,
+            "m",
+            "above the floor and below the beacons' top: they are at most 50 cm tall \
+             (competition.md §1.5)",
+        );
+    }
+
+    fn check_imu(&self, c: &mut Checker<'_>) {
+        c.non_empty(
+            "imu.i2c_device",
+            &self.imu.i2c_device,
+            "the I2C bus device, /dev/i2c-1 on the Pi's header",
+        );
+        c.require(
+            "imu.i2c_address",
+            self.imu.i2c_address,
+            matches!(self.imu.i2c_address, 0x68 | 0x69),
+            || "must be 104 (0x68) or 105 (0x69): the MPU9255's AD0 pin selects one".to_owned(),
+        );
         c.require(
             "imu.gyro_range_dps",
+            self.imu.gyro_range_dps,
             self.imu.gyro_range().is_some(),
-            || {
-                format!(
-                    "must be 250, 500, 1000 or 2000 (got {})",
-                    self.imu.gyro_range_dps
-                )
-            },
+            || "must be 250, 500, 1000 or 2000 (the MPU9255's gyro full scales)".to_owned(),
         );
-        c.within("imu.yaw_deg", self.imu.yaw_deg, -360.0, 360.0);
-        c.non_negative(
+        c.within(
+            "imu.yaw_deg",
+            self.imu.yaw_deg,
+            -360.0,
+            360.0,
+            "°",
+            "one turn either way",
+        );
+        c.within(
             "imu.gyro_noise_density_rad_s_sqrt_hz",
             self.imu.gyro_noise_density_rad_s_sqrt_hz,
+            0.0,
+            0.0175,
+            "rad/s/√Hz",
+            "a hundred times the MPU-9250's typical 1.75e-4",
         );
     }
 }

@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::check::Checker;
+use super::check::{Checker, num};
+use super::limits;
 
 /// How far the simulated world's truth departs from the robot's beliefs (its
 /// configuration). Per seed, the simulator draws the truth from the profile's distributions
@@ -51,7 +52,8 @@ pub struct SimConfig {
     /// 2^63 − 1 cannot be written in a file.
     pub seed: u64,
     /// Physics time step, µs. 1000: assumption (20 steps per 20 ms control period; the
-    /// motor time constant is 100 ms). Must divide `mega.control_period_us`.
+    /// motor time constant is 100 ms). Must divide `mega.control_period_us`; 10 to 5000
+    /// (the simulator reads the IMU at most once a step, every 5 ms).
     pub time_step_us: u32,
     /// Things around the field the lidar may see (`[[sim.clutter]]`, world frame). Default:
     /// a person standing 0.2 m beyond the floor's right edge (legs at x = 1.1 and 1.3 m) and
@@ -103,6 +105,12 @@ impl ClutterConfig {
     }
 
     fn check(&self, c: &mut Checker<'_>, key: &str) {
+        const WHERE: &str = "standing in the hall: the X4 sees at most 16.4 m, so farther \
+                             clutter is invisible";
+        const SIZE: &str = "a person's leg, a pole, a table or a wall of the hall";
+        let position = |c: &mut Checker<'_>, name: &str, value: f64| {
+            c.within(&format!("{key}.{name}"), value, -20.0, 20.0, "m", WHERE);
+        };
         match *self {
             Self::Cylinder {
                 x_m,
@@ -110,10 +118,10 @@ impl ClutterConfig {
                 radius_m,
                 height_m,
             } => {
-                c.finite(&format!("{key}.x_m"), x_m);
-                c.finite(&format!("{key}.y_m"), y_m);
-                c.positive(&format!("{key}.radius_m"), radius_m);
-                c.positive(&format!("{key}.height_m"), height_m);
+                position(c, "x_m", x_m);
+                position(c, "y_m", y_m);
+                c.within(&format!("{key}.radius_m"), radius_m, 0.001, 5.0, "m", SIZE);
+                c.within(&format!("{key}.height_m"), height_m, 0.001, 10.0, "m", SIZE);
             }
             Self::Block {
                 x_min_m,
@@ -122,15 +130,23 @@ impl ClutterConfig {
                 y_max_m,
                 height_m,
             } => {
-                c.finite(&format!("{key}.x_min_m"), x_min_m);
-                c.finite(&format!("{key}.y_min_m"), y_min_m);
-                c.require(&format!("{key}.x_max_m"), x_max_m > x_min_m, || {
-                    format!("must exceed x_min_m = {x_min_m} (got {x_max_m})")
-                });
-                c.require(&format!("{key}.y_max_m"), y_max_m > y_min_m, || {
-                    format!("must exceed y_min_m = {y_min_m} (got {y_max_m})")
-                });
-                c.positive(&format!("{key}.height_m"), height_m);
+                position(c, "x_min_m", x_min_m);
+                position(c, "y_min_m", y_min_m);
+                position(c, "x_max_m", x_max_m);
+                position(c, "y_max_m", y_max_m);
+                c.require(
+                    &format!("{key}.x_max_m"),
+                    num(x_max_m),
+                    x_max_m > x_min_m,
+                    || format!("must exceed x_min_m = {}", num(x_min_m)),
+                );
+                c.require(
+                    &format!("{key}.y_max_m"),
+                    num(y_max_m),
+                    y_max_m > y_min_m,
+                    || format!("must exceed y_min_m = {}", num(y_min_m)),
+                );
+                c.within(&format!("{key}.height_m"), height_m, 0.001, 10.0, "m", SIZE);
             }
         }
     }
@@ -156,19 +172,44 @@ impl Default for SimConfig {
 }
 
 impl SimConfig {
+    /// Most clutter items: each is ray-cast for every one of the lidar's ~5 000 samples a
+    /// second, and a hundred already fills a crowded hall.
+    pub const MAX_CLUTTER: usize = 100;
+
     pub(crate) fn check(&self, c: &mut Checker<'_>, control_period_us: u32) {
-        c.nonzero("time_step_us", self.time_step_us.into());
+        c.within_int(
+            "time_step_us",
+            self.time_step_us,
+            10,
+            i128::from(limits::IMU_READ_PERIOD_US),
+            "µs",
+            "at most the IMU's 5 ms read period, which the simulator reads once per step; \
+             at least 10 µs, a byte's time at 1 Mbaud",
+        );
+        c.within_int(
+            "clutter",
+            self.clutter.len() as u64,
+            0,
+            Self::MAX_CLUTTER as i128,
+            "items",
+            "each is ray-cast for every lidar sample; a hundred fills a crowded hall",
+        );
         for (i, clutter) in self.clutter.iter().enumerate() {
             clutter.check(c, &format!("clutter[{i}]"));
         }
-        if self.time_step_us != 0 && control_period_us != 0 {
+        // Against a control period and a step that are themselves valid (else reported there).
+        let period_ok = (1_000..=100_000).contains(&control_period_us)
+            && control_period_us.is_multiple_of(1_000);
+        let step_ok = (10..=limits::IMU_READ_PERIOD_US).contains(&self.time_step_us);
+        if period_ok && step_ok {
             c.require(
                 "time_step_us",
+                self.time_step_us,
                 control_period_us.is_multiple_of(self.time_step_us),
                 || {
                     format!(
-                        "must divide mega.control_period_us = {control_period_us} (got {})",
-                        self.time_step_us
+                        "must divide mega.control_period_us = {control_period_us}, so the \
+                         Mega's ticks fall on steps"
                     )
                 },
             );

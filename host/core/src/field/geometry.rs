@@ -9,6 +9,14 @@ use std::ops::{Add, AddAssign, Mul, Neg, Sub};
 
 use serde::{Deserialize, Serialize};
 
+/// √(x² + y²), computed the same on every machine: `f64::hypot` calls the platform's libm,
+/// whose last bit differs between the Pi (aarch64) and a PC (x86-64) for about one input in
+/// eight, and a recording made on the robot must replay bit for bit on a PC. Squares and an
+/// IEEE square root are exact everywhere; the lengths here (metres, m/s) cannot overflow.
+pub fn hypot(x: f64, y: f64) -> f64 {
+    (x * x + y * y).sqrt()
+}
+
 /// Wrap an angle into (−π, π], radians. Non-finite input is returned unchanged.
 pub fn wrap_angle(angle_rad: f64) -> f64 {
     if !angle_rad.is_finite() {
@@ -57,7 +65,7 @@ impl Vec2 {
 
     /// Euclidean length.
     pub fn norm(self) -> f64 {
-        self.x.hypot(self.y)
+        hypot(self.x, self.y)
     }
 
     /// Euclidean distance to `other`.
@@ -347,7 +355,7 @@ impl Rect {
     pub fn distance_to_point(self, p: Vec2) -> f64 {
         let dx = (self.min.x - p.x).max(0.0).max(p.x - self.max.x);
         let dy = (self.min.y - p.y).max(0.0).max(p.y - self.max.y);
-        dx.hypot(dy)
+        hypot(dx, dy)
     }
 
     /// True when the segment touches or crosses the rectangle.

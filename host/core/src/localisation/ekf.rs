@@ -6,7 +6,7 @@
 use nalgebra::{Matrix2, Matrix4, SMatrix, Vector2, Vector4};
 
 use crate::config::LocalisationConfig;
-use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::field::geometry::{Pose2, Vec2, hypot, wrap_angle};
 use crate::odometry::BodyIncrement;
 
 /// Index of x, y, θ and the gyro bias in the state vector.
@@ -121,7 +121,7 @@ impl EkfState {
         let inc = input.increment;
         let dt = input.dt_s.max(0.0);
         let (theta, bias) = (self.mean[THETA], self.mean[BIAS]);
-        let distance_m = inc.dx_m.hypot(inc.dy_m);
+        let distance_m = hypot(inc.dx_m, inc.dy_m);
         let mut outcome = StepOutcome::default();
         let mut f = Matrix4::<f64>::identity();
         let mut zero_rate_z = None;

@@ -11,7 +11,7 @@
 //! * at any heading: the disc swept by the footprint turning on the spot (the circle of its
 //!   farthest corner), for the stretches where the follower may rotate.
 
-use crate::field::geometry::{Circle, Pose2, Rect, Vec2};
+use crate::field::geometry::{Circle, Pose2, Rect, Vec2, hypot};
 use crate::field::{Field, OrientedRect, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M};
 
 /// Sampling step along a segment for the fixed-heading check, m. 0.005: a quarter of the
@@ -54,9 +54,9 @@ impl Footprint {
     /// (√(0.15² + 0.15²) = 0.212 m for 30 × 30 cm), or the carried part's far corner
     /// (√(0.225² + 0.045²) = 0.229 m) if larger.
     pub fn sweep_radius_m(&self) -> f64 {
-        let body = (self.length_m / 2.0).hypot(self.width_m / 2.0);
+        let body = hypot(self.length_m / 2.0, self.width_m / 2.0);
         if self.carrying {
-            body.max((PICK_STANDOFF_M + PART_DEPTH_M).hypot(PART_WIDTH_M / 2.0))
+            body.max(hypot(PICK_STANDOFF_M + PART_DEPTH_M, PART_WIDTH_M / 2.0))
         } else {
             body
         }

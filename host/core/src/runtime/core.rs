@@ -12,7 +12,7 @@ use crate::robot::{EstimatorKind, InputCounts, Robot};
 use super::brain::{Brain, Phase};
 use super::bringup::{BiasOutcome, GyroBiasStartup};
 use super::event::Event;
-use super::input::{Input, OperatorCommand, Stamped, Timestamp};
+use super::input::{Input, MANUAL_DEADMAN_US, OperatorCommand, Stamped, Timestamp};
 use super::output::{LidarCommand, Outputs, WheelCommand};
 
 /// What a display shows of the core (the HMI, the live status line, the logs).
@@ -30,6 +30,8 @@ pub struct Status {
     pub started: Option<Timestamp>,
     /// The operator has stopped the robot.
     pub stopped: bool,
+    /// The operator drives the robot ([`OperatorCommand::Drive`]); the mission waits.
+    pub manual: bool,
     /// Parts placed so far (the robot's own count, not the referee's points).
     pub placed: u32,
     /// The box switch as last reported.
@@ -38,12 +40,20 @@ pub struct Status {
     pub inputs: InputCounts,
 }
 
+/// The operator's last [`OperatorCommand::Drive`].
+#[derive(Clone, Copy, Debug)]
+struct ManualDrive {
+    twist: BodyTwist,
+    until_us: u64,
+}
+
 /// The robot's software: see the module documentation of [`crate::runtime`].
 #[derive(Debug)]
 pub struct Core {
     robot: Robot,
     brain: Brain,
     stopped: bool,
+    manual: Option<ManualDrive>,
     lidar_started: bool,
     gyro_bias: GyroBiasStartup,
     placed: u32,
@@ -67,6 +77,7 @@ impl Core {
             robot: Robot::with_estimator(config, kind, start_pose),
             brain: Brain::new(config)?,
             stopped: false,
+            manual: None,
             lidar_started: false,
             gyro_bias: GyroBiasStartup::default(),
             placed: 0,
@@ -155,6 +166,14 @@ impl Core {
         if self.stopped {
             self.robot.command_motion(BodyTwist::default());
             self.robot.command_solenoid(false);
+        } else if let Some(manual) = self.manual {
+            let fresh = now_us <= manual.until_us && mega_heard;
+            self.robot.command_motion(if fresh {
+                manual.twist
+            } else {
+                BodyTwist::default()
+            });
+            self.robot.command_solenoid(tick.solenoid_on);
         } else {
             self.robot.command_motion(tick.twist);
             self.robot.command_solenoid(tick.solenoid_on);
@@ -179,7 +198,17 @@ impl Core {
             }
             OperatorCommand::Resume => {
                 self.stopped = false;
+                self.manual = None;
                 outputs.events.push(Event::Resumed);
+            }
+            OperatorCommand::Drive { twist } => {
+                if self.manual.is_none() {
+                    outputs.events.push(Event::ManualDrive);
+                }
+                self.manual = Some(ManualDrive {
+                    twist: *twist,
+                    until_us: now_us + MANUAL_DEADMAN_US,
+                });
             }
             OperatorCommand::SetPose { pose } => {
                 self.robot.reset_pose(*pose, now_us);
@@ -218,6 +247,7 @@ impl Core {
             phase: self.brain.phase(),
             started: self.brain.started_at_us().map(Timestamp::from_us),
             stopped: self.stopped,
+            manual: self.manual.is_some(),
             placed: self.placed,
             switch_pressed: self.robot.switch_pressed(),
             inputs: self.robot.input_counts(),
@@ -294,6 +324,39 @@ mod tests {
         core.step(&at(1200, Input::Operator(OperatorCommand::Resume)));
         let drives = (0..10).any(|k| moving(&core.step(&at(1207 + 20 * k, Input::HostTick))));
         assert!(drives, "resume lets the mission drive again");
+    }
+
+    #[test]
+    fn the_operator_drives_until_the_deadman_lapses_a_stop_wins_and_resume_hands_back() {
+        let mut core = core();
+        core.step(&at(5, Input::MegaReset));
+        let forward = Input::Operator(OperatorCommand::Drive {
+            twist: BodyTwist::new(0.2, 0.0, 0.0),
+        });
+        assert_eq!(
+            core.step(&at(10, forward.clone())).events,
+            [Event::ManualDrive]
+        );
+        let driving = core.step(&at(27, Input::HostTick));
+        let speeds = driving.wheels.unwrap().wheel_speeds_rad_s;
+        // Forward: every wheel turns.
+        assert!(speeds.iter().all(|s| s.abs() > 1.0), "{speeds:?}");
+        assert!(core.status().manual);
+        // Half a second after the last command the robot stands still, still in manual.
+        assert!(moving(&core.step(&at(507, Input::HostTick))));
+        assert!(!moving(&core.step(&at(527, Input::HostTick))));
+        assert!(core.step(&at(540, forward.clone())).events.is_empty());
+        assert!(moving(&core.step(&at(547, Input::HostTick))));
+        core.step(&at(550, Input::Operator(OperatorCommand::Stop)));
+        core.step(&at(555, forward));
+        assert!(
+            !moving(&core.step(&at(567, Input::HostTick))),
+            "a stop wins"
+        );
+        core.step(&at(600, Input::Operator(OperatorCommand::Resume)));
+        assert!(!core.status().manual && !core.status().stopped);
+        // Back with the mission, which has no part list: it stands still.
+        assert!(!moving(&core.step(&at(607, Input::HostTick))));
     }
 
     #[test]

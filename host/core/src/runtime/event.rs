@@ -72,8 +72,10 @@ pub enum Event {
     },
     /// The operator stopped the robot.
     Stopped,
-    /// The operator let it go on.
+    /// The operator let it go on (or handed the wheels back to the mission).
     Resumed,
+    /// The operator took the wheels ([`super::OperatorCommand::Drive`]): the mission pauses.
+    ManualDrive,
     /// The operator placed the robot: the pose estimate restarted here.
     PoseSet {
         /// The pose, world frame.
@@ -210,6 +212,7 @@ impl Event {
             Self::RefereeFailed { message } => format!("server: {message}"),
             Self::Stopped => "stopped by the operator".to_owned(),
             Self::Resumed => "resumed by the operator".to_owned(),
+            Self::ManualDrive => "driven by the operator; the mission waits".to_owned(),
             Self::PoseSet { pose } => format!(
                 "pose set by the operator: ({:.3}, {:.3}) m, {:.1}°",
                 pose.x,

@@ -7,6 +7,7 @@ use crate::drivers::mega_link::WheelTelemetry;
 use crate::drivers::x4::scan::Scan;
 use crate::field::PartColor;
 use crate::field::geometry::Pose2;
+use crate::kinematics::BodyTwist;
 
 /// A time on the robot's monotonic clock, µs since the devices' common epoch (power-up in
 /// the simulator, the process start on the robot). Only devices read a clock; the core
@@ -68,6 +69,11 @@ impl std::fmt::Display for DeviceKind {
     }
 }
 
+/// How long an [`OperatorCommand::Drive`] holds, µs: a driver that stops sending (a
+/// dropped joystick, a crashed script) stops the robot within half a second, as ROS 2's
+/// `cmd_vel` conventions expect.
+pub const MANUAL_DEADMAN_US: u64 = 500_000;
+
 /// What an operator asks for (HMI, console, ROS 2): recorded like every other input.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "command", rename_all = "snake_case")]
@@ -80,8 +86,18 @@ pub enum OperatorCommand {
     },
     /// Stop: zero wheel references and magnet off until [`OperatorCommand::Resume`].
     Stop,
-    /// Carry on after a stop.
+    /// Carry on after a stop, or hand the wheels back to the mission after
+    /// [`OperatorCommand::Drive`].
     Resume,
+    /// The operator takes the wheels: drive with `twist` (robot frame) instead of the
+    /// mission, for [`MANUAL_DEADMAN_US`] after this command, then stand still until the
+    /// next `Drive` or [`OperatorCommand::Resume`] (a joystick, a calibration or
+    /// identification drive: each sends it again every host tick). A stop still wins;
+    /// the magnet stays as the mission holds it.
+    Drive {
+        /// Robot-frame velocity.
+        twist: BodyTwist,
+    },
     /// The robot stands at this pose (world frame): restart the pose estimate there.
     SetPose {
         /// The pose.

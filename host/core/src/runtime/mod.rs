@@ -25,6 +25,6 @@ pub use self::brain::{Brain, Phase};
 pub use self::bringup::{BiasOutcome, GYRO_BIAS_SAMPLES, GYRO_SETTLE_US, GyroBiasStartup};
 pub use self::core::{Core, Status};
 pub use self::event::{Event, slot_name};
-pub use self::input::{DeviceKind, Input, OperatorCommand, Stamped, Timestamp};
+pub use self::input::{DeviceKind, Input, MANUAL_DEADMAN_US, OperatorCommand, Stamped, Timestamp};
 pub use self::output::{LidarCommand, Outputs, WheelCommand};
 pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};

@@ -1,7 +1,7 @@
-//! `ratf calibrate` in the simulator: drive the calibration drive in a drawn world, fit the
-//! lidar's range scale and offset, its mount yaw and the beacons
-//! ([`ratf_core::calibration`]), and compare the fit with the world's truth, which the
-//! robot never sees.
+//! `ratf calibrate`: drive the calibration drive through the robot's runtime ([`drive`]),
+//! fit the lidar's range scale and offset, its mount yaw and the beacons
+//! ([`ratf_core::calibration`]); in the simulator, compare the fit with the world's truth,
+//! which the robot never sees.
 //!
 //! The world is built from the configuration the team wrote before calibrating (its
 //! beliefs) plus the drawn errors; the calibration changes only the robot's beliefs, so
@@ -9,16 +9,18 @@
 
 use serde::Serialize;
 
-use crate::apps::scripts::{StopWindow, calibration_drive};
-use ratf_core::calibration::{
-    self, Calibration, CalibrationError, Priors, StopRecorder, TapeMeasure,
-};
+pub mod drive;
+pub mod robot;
+
+use crate::apps::scripts::calibration_drive;
+use drive::drive_and_collect;
+use ratf_core::calibration::{self, Calibration, CalibrationError, Priors, TapeMeasure};
 use ratf_core::config::{Config, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Vec2, wrap_angle};
 use ratf_core::rng::SimRng;
-use ratf_core::runtime::Input;
-use ratf_sim::harness::SimulatedRobot;
+use ratf_core::runtime::Core;
+use ratf_sim::devices::SimDevices;
 use ratf_sim::truth::WorldTruth;
 use ratf_sim::world::Scenario;
 
@@ -36,6 +38,9 @@ pub enum CalibrateError {
     /// The drive's data could not be fitted.
     #[error("calibration: {0}")]
     Fit(#[from] CalibrationError),
+    /// The core could not be built from the configuration.
+    #[error("task planner: {0}")]
+    Planner(#[from] ratf_core::planning::tasks::TaskError),
 }
 
 /// The fit against the truth, in the units a team reads.
@@ -87,43 +92,21 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
         start_pose: script.start,
         ..Scenario::new(config)
     };
-    let mut sim = SimulatedRobot::new(config, &scenario, script.start)?;
+    let devices = SimDevices::new(config, &scenario)?;
+    let mut core = Core::new(config, script.start)?;
+    let driven = drive_and_collect(
+        &mut core,
+        devices,
+        &script,
+        windows,
+        config,
+        &mut [],
+        || false,
+    )?;
+    let (stops, devices) = (driven.stops, driven.devices);
     let field = config.field.field();
-    let end_us = ((script.duration_s() + 0.1) * 1e6) as u64;
-    let mut stops = Vec::new();
-    let mut scans: Vec<Vec<ratf_core::drivers::x4::scan::Scan>> = vec![Vec::new(); windows.len()];
-    let mut poses = vec![None; windows.len()];
-    let mut next_stop = 0;
-    while sim.now_us() < end_us {
-        sim.step_observed(
-            |robot, now_us| robot.command_motion(script.twist_at(now_us as f64 * 1e-6)),
-            |stamped| {
-                if let Input::Scan(scan) = &stamped.input
-                    && let Some(k) = still_window(&windows, scan)
-                {
-                    scans[k].push(scan.clone());
-                }
-            },
-        )?;
-        let now_s = sim.now_us() as f64 * 1e-6;
-        for (k, window) in windows.iter().enumerate() {
-            if poses[k].is_none() && now_s >= window.start_s + SETTLE_S {
-                let robot = sim.robot();
-                poses[k] = Some((robot.estimation().odometry_pose(), robot.pose()));
-            }
-        }
-        while next_stop < windows.len() && now_s >= windows[next_stop].end_s {
-            if let Some((odometry, estimate)) = poses[next_stop] {
-                let mut recorder = StopRecorder::new(config, &field, estimate);
-                for scan in &scans[next_stop] {
-                    recorder.add_scan(scan);
-                }
-                stops.push(recorder.finish(odometry, estimate));
-            }
-            next_stop += 1;
-        }
-    }
-    let truth = sim.world().truth().clone();
+    let world = devices.world();
+    let truth = world.truth().clone();
     let true_field = truth.true_field(config);
     let true_beacons: Vec<Vec2> = true_field
         .beacons()
@@ -161,26 +144,32 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
         calibration: fit,
         errors,
         stops: stops.len(),
-        collisions: sim.world().stats().collisions,
-        sim_s: sim.now_us() as f64 * 1e-6,
+        collisions: world.stats().collisions,
+        sim_s: devices.now_us() as f64 * 1e-6,
         truth,
     })
 }
 
-/// Time after a stop begins for the robot to come to rest, s (the legs' 0.3 s ramp and
-/// the wheels' settling).
-const SETTLE_S: f64 = 0.5;
-
-/// The stop window a scan lies wholly in (after the settling time), if any.
-fn still_window(
-    windows: &[StopWindow],
-    scan: &ratf_core::drivers::x4::scan::Scan,
-) -> Option<usize> {
-    let start_s = scan.stamp_us * 1e-6;
-    let span_s = scan.sample_period_us * f64::from(scan.samples) * 1e-6;
-    windows
-        .iter()
-        .position(|w| start_s >= w.start_s + SETTLE_S && start_s + span_s <= w.end_s)
+/// What the robot believes in the world of `config` (its `[sim] seed`): with `calibrate`,
+/// the configuration after the calibration drive (with the tape measures); when the fit is
+/// refused, the configuration as written, as on the day for a team with no time to drive
+/// again, and the refusal beside it.
+pub fn beliefs(
+    config: &Config,
+    calibrate: bool,
+) -> Result<(Config, Option<CalibrationError>), CalibrateError> {
+    let mut beliefs = config.clone();
+    if !calibrate {
+        return Ok((beliefs, None));
+    }
+    match run_in_sim(config, true) {
+        Ok(run) => {
+            run.calibration.apply(&mut beliefs);
+            Ok((beliefs, None))
+        }
+        Err(CalibrateError::Fit(refused)) => Ok((beliefs, Some(refused))),
+        Err(other) => Err(other),
+    }
 }
 
 fn max_distance(a: &[Vec2], b: &[Vec2]) -> f64 {
@@ -265,5 +254,17 @@ mod tests {
             run.errors,
             run.errors.uncalibrated_mount_yaw_deg
         );
+    }
+
+    #[test]
+    fn the_calibration_drive_clears_machine_a_when_the_strafe_falls_short() {
+        // Harsh seed 31: strafe ×0.85; a 0.59 m right leg touched machine A's dividers
+        // three times.
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Harsh;
+        config.sim.seed = 31;
+        let run = run_in_sim(&config, true).unwrap();
+        assert!(run.truth.lateral_factor < 0.9, "{}", run.truth);
+        assert_eq!(run.collisions, 0);
     }
 }

@@ -1,0 +1,150 @@
+//! `ratf calibrate --robot`: the calibration drive on the real devices, through the same
+//! runtime and the same drive as in the simulator ([`super::drive`]), recorded; the fit uses
+//! the tape measures the team took between the poles.
+
+use std::path::PathBuf;
+
+use ratf_core::calibration::{self, Calibration, CalibrationError, Priors, Stop, TapeMeasure};
+use ratf_core::config::Config;
+use ratf_core::runtime::Core;
+
+use super::drive::drive_and_collect;
+use crate::apps::run::{RunError, open_devices};
+use crate::apps::scripts::calibration_drive;
+use crate::devices::{DeviceError, Shared};
+use crate::recording::{Recorder, RecordingError, Session};
+
+/// `A-B=METRES`: a tape measure between beacons A and B.
+pub fn parse_tape(text: &str) -> Result<TapeMeasure, String> {
+    let bad = || format!("{text:?}: expected A-B=METRES with beacons 0 to 3, e.g. 0-1=1.776");
+    let (pair, metres) = text.split_once('=').ok_or_else(bad)?;
+    let (from, to) = pair.split_once('-').ok_or_else(bad)?;
+    let from: usize = from.trim().parse().map_err(|_| bad())?;
+    let to: usize = to.trim().parse().map_err(|_| bad())?;
+    let distance_m: f64 = metres.trim().parse().map_err(|_| bad())?;
+    if from > 3 || to > 3 || from == to || !(0.2..=3.0).contains(&distance_m) {
+        return Err(format!(
+            "{text:?}: two different beacons from 0 to 3, and a distance within 0.2 to 3 m"
+        ));
+    }
+    Ok(TapeMeasure {
+        from,
+        to,
+        distance_m,
+    })
+}
+
+/// How a calibration on the robot is made.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotOptions {
+    /// Pole-to-pole distances measured with a tape (may be empty: the range scale then
+    /// rests on the odometry and the nominal layout).
+    pub tape: Vec<TapeMeasure>,
+    /// Where the recording goes.
+    pub recording: PathBuf,
+}
+
+/// Why a calibration on the robot failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RobotCalibrateError {
+    /// A device could not be opened or the core built.
+    #[error(transparent)]
+    Setup(#[from] RunError),
+    /// A device failed during the drive.
+    #[error("during the drive: {0}")]
+    Device(#[from] DeviceError),
+    /// The recording could not be written.
+    #[error("recording: {0}")]
+    Recording(#[from] Box<RecordingError>),
+    /// Ctrl-C or SIGTERM during the drive.
+    #[error("stopped during the drive; nothing was fitted")]
+    Interrupted,
+    /// The drive's data could not be fitted.
+    #[error("{0}")]
+    Fit(#[from] CalibrationError),
+}
+
+/// A calibration on the robot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotCalibration {
+    /// The fit.
+    pub calibration: Calibration,
+    /// The stops the fit used.
+    pub stops: Vec<Stop>,
+    /// The recording of the drive.
+    pub recording: PathBuf,
+}
+
+/// Drive the calibration drive on the devices of `config` (the robot placed at the field's
+/// start pose, machine A's surroundings clear) and fit. `shared` carries the quit flag
+/// (wire the signals to it first) and the panic flag; on every way out the robot gets zero
+/// references and magnet off.
+pub fn run_on_robot(
+    config: &Config,
+    options: &RobotOptions,
+    shared: &Shared,
+) -> Result<RobotCalibration, RobotCalibrateError> {
+    let (script, windows) = calibration_drive();
+    let mut core = Core::new(config, script.start).map_err(RunError::from)?;
+    let session = Session {
+        kind: "calibration".to_owned(),
+        config_toml: config.to_toml_string().map_err(|e| {
+            Box::new(RecordingError::Io {
+                path: options.recording.clone(),
+                source: std::io::Error::other(e),
+            })
+        })?,
+        start_pose: script.start,
+        version: env!("CARGO_PKG_VERSION").to_owned(),
+    };
+    let mut recorder = Recorder::create(&options.recording, &session).map_err(Box::new)?;
+    let opened = open_devices(config, shared, Vec::new())?;
+    let driven = drive_and_collect(
+        &mut core,
+        opened.devices,
+        &script,
+        windows,
+        config,
+        &mut [&mut recorder],
+        || shared.quitting(),
+    );
+    opened.running.close(shared);
+    let recording = recorder.finish().map_err(Box::new)?;
+    let driven = driven?;
+    if !driven.finished {
+        return Err(RobotCalibrateError::Interrupted);
+    }
+    let stops = driven.stops;
+    let field = config.field.field();
+    let mut priors = Priors::from_config(config, &field);
+    priors.tape = options.tape.clone();
+    let calibration = calibration::solve(&stops, &priors)?;
+    Ok(RobotCalibration {
+        calibration,
+        stops,
+        recording,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tape_measure_is_read_from_a_b_equals_metres_and_nonsense_is_named() {
+        assert_eq!(
+            parse_tape("0-1=1.776"),
+            Ok(TapeMeasure {
+                from: 0,
+                to: 1,
+                distance_m: 1.776
+            })
+        );
+        for bad in [
+            "0-1", "0:1=1.7", "0-4=1.7", "2-2=1.7", "0-1=17", "0-1=nan", "a-1=1",
+        ] {
+            let error = parse_tape(bad).unwrap_err();
+            assert!(error.contains(bad), "{bad}: {error}");
+        }
+    }
+}
