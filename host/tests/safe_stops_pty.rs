@@ -6,20 +6,22 @@
 //! signals it and measures, on a monotonic clock, how long the wire takes to carry zero
 //! references and magnet off: at most 50 ms (issue 13). SIGTERM is `run_pty.rs`'s.
 //!
-//! Both programs run in their own process groups, killed on drop; every wait has a deadline.
+//! Both programs run in their own process groups, killed on drop (`common`); every wait
+//! has a deadline.
+
+mod common;
 
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
+use std::io::{ErrorKind, Read, Write};
 use std::os::fd::AsFd;
 use std::os::unix::fs::OpenOptionsExt;
-use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
-use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+use common::{Spawned, TempDir, one_at_a_time, read, serve};
 
 use nix::poll::{PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::Signal;
@@ -28,138 +30,6 @@ use ratf_protocol::messages::{Command as MegaCommand, WHEEL_COUNT};
 
 /// The bound of issue 13: signal (or panic) to zero references and magnet off on the wire.
 const STOP_BOUND: Duration = Duration::from_millis(50);
-
-/// One world and one robot at a time: two real-time pairs side by side on a 2-core machine
-/// starve each other's 50 Hz loops.
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn one_at_a_time() -> MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(PoisonError::into_inner)
-}
-
-/// A `ratf` child in its own process group, killed (the whole group) on drop; its stdout
-/// lines arrive on a channel, its stderr goes to a file.
-struct Spawned {
-    child: Child,
-    lines: Receiver<String>,
-    seen: Vec<String>,
-    stderr: PathBuf,
-}
-
-impl Spawned {
-    fn start(args: &[&str], env: &[(&str, &str)], stderr: PathBuf) -> Self {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_ratf"))
-            .args(args)
-            .envs(env.iter().copied())
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(File::create(&stderr).expect("a stderr file"))
-            .process_group(0)
-            .spawn()
-            .expect("ratf starts");
-        let stdout = child.stdout.take().expect("piped stdout");
-        let (tx, lines) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines() {
-                let Ok(line) = line else { break };
-                if tx.send(line).is_err() {
-                    break;
-                }
-            }
-        });
-        Self {
-            child,
-            lines,
-            seen: Vec::new(),
-            stderr,
-        }
-    }
-
-    fn pid(&self) -> nix::unistd::Pid {
-        nix::unistd::Pid::from_raw(self.child.id() as i32)
-    }
-
-    /// What it printed, both streams, for failure messages.
-    fn output(&self) -> String {
-        let mut stderr = String::new();
-        if let Ok(mut file) = File::open(&self.stderr) {
-            let _ = file.read_to_string(&mut stderr);
-        }
-        format!("stdout:\n{}\nstderr:\n{stderr}", self.seen.join("\n"))
-    }
-
-    /// The first line from now on that `matches`, within `timeout`.
-    fn wait_line(&mut self, timeout: Duration, matches: impl Fn(&str) -> bool) -> String {
-        let deadline = Instant::now() + timeout;
-        loop {
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.lines.recv_timeout(left) {
-                Ok(line) => {
-                    self.seen.push(line.clone());
-                    if matches(&line) {
-                        return line;
-                    }
-                }
-                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
-                    panic!("no such line within {timeout:?}\n{}", self.output())
-                }
-            }
-        }
-    }
-
-    /// Its exit status within `timeout`, with everything it printed collected.
-    fn wait_exit(&mut self, timeout: Duration) -> ExitStatus {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(status) = self.child.try_wait().expect("try_wait") {
-                while let Ok(line) = self.lines.recv_timeout(Duration::from_millis(200)) {
-                    self.seen.push(line);
-                }
-                return status;
-            }
-            assert!(
-                Instant::now() < deadline,
-                "still running after {timeout:?}\n{}",
-                self.output()
-            );
-            let _ = self
-                .lines
-                .recv_timeout(Duration::from_millis(20))
-                .map(|line| {
-                    self.seen.push(line);
-                });
-        }
-    }
-}
-
-impl Drop for Spawned {
-    fn drop(&mut self) {
-        if let Ok(None) = self.child.try_wait() {
-            let _ = nix::sys::signal::killpg(self.pid(), Signal::SIGKILL);
-        }
-        let _ = self.child.wait();
-    }
-}
-
-/// A fresh directory under the system's temporary one, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.subsec_nanos());
-        let dir = std::env::temp_dir().join(format!("ratf-{name}-{}-{nanos}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("a temporary directory");
-        Self(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
 
 /// One batch the robot wrote to its Mega (`G H I J L`), stamped when the tap read it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -348,30 +218,14 @@ struct Round {
     _world: Spawned,
     tap: MegaTap,
     robot: Spawned,
-    _dir: TempDir,
+    dir: TempDir,
 }
 
 impl Round {
-    fn until_carrying(name: &str, seed: u32, env: &[(&str, &str)]) -> Self {
+    fn until_carrying(name: &str, seed: &str, env: &[(&str, &str)]) -> Self {
         let dir = TempDir::new(name);
         let dev = dir.0.join("dev");
-        let mut world = Spawned::start(
-            &[
-                "sim",
-                "--round",
-                "1",
-                "--seed",
-                &seed.to_string(),
-                "--wait-for-robot-s",
-                "60",
-                "--serve-pty",
-                dev.to_str().expect("a UTF-8 path"),
-            ],
-            &[],
-            dir.0.join("serve.err"),
-        );
-        let line = world.wait_line(Duration::from_secs(30), |l| l.starts_with("server port "));
-        let port: u16 = line["server port ".len()..].trim().parse().expect("a port");
+        let (world, port) = serve(&dir.0, seed, &[]);
         let tap = MegaTap::start(&dir.0.join("tap-mega"), &dev.join("mega"));
         let config = dir.0.join("robot.toml");
         std::fs::write(
@@ -384,7 +238,7 @@ impl Round {
             ),
         )
         .expect("the robot's configuration");
-        let robot = Spawned::start(
+        let robot = Spawned::start_with_env(
             &[
                 "run",
                 "--config",
@@ -395,35 +249,48 @@ impl Round {
                 "0",
             ],
             env,
-            dir.0.join("run.err"),
+            &dir.0.join("run.err"),
         );
         // The part list comes a second after the robot connects; the first pick follows.
         let mut round = Self {
             _world: world,
             tap,
             robot,
-            _dir: dir,
+            dir,
         };
         let deadline = Instant::now() + Duration::from_secs(60);
         while !round.tap.batches().iter().any(Batch::carrying) {
             assert!(
                 Instant::now() < deadline,
                 "the robot never carried a part\n{}",
-                round.robot.output()
+                round.output()
             );
             if let Ok(Some(status)) = round.robot.child.try_wait() {
-                panic!("ratf run ended early: {status:?}\n{}", round.robot.output());
+                panic!("ratf run ended early: {status:?}\n{}", round.output());
             }
             std::thread::park_timeout(Duration::from_millis(5));
         }
         round
     }
 
+    /// What the robot printed, both streams, for failure messages.
+    fn output(&self) -> String {
+        format!(
+            "stdout:\n{}\nstderr:\n{}",
+            self.robot.seen.join("\n"),
+            read(&self.dir.0.join("run.err"))
+        )
+    }
+
     /// Send `signal` to the robot; the first stop batch on the wire after it and how long
     /// after the signal it came.
     fn stop_with(&mut self, signal: Signal) -> (Batch, Duration) {
         let sent = Instant::now();
-        nix::sys::signal::kill(self.robot.pid(), signal).expect("the signal is sent");
+        nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(self.robot.child.id() as i32),
+            signal,
+        )
+        .expect("the signal is sent");
         let stop = self.tap.wait_batch(
             Duration::from_secs(5),
             "zero references and magnet off",
@@ -447,7 +314,7 @@ impl Round {
 #[test]
 fn sigint_puts_zero_references_and_magnet_off_on_the_megas_wire_within_50_ms() {
     let _serial = one_at_a_time();
-    let mut round = Round::until_carrying("stop-sigint", 1, &[]);
+    let mut round = Round::until_carrying("stop-sigint", "1", &[]);
     let (stop, elapsed) = round.stop_with(Signal::SIGINT);
     println!("SIGINT: zero references and magnet off on the Mega's wire {elapsed:?} after it");
     assert!(
@@ -455,7 +322,7 @@ fn sigint_puts_zero_references_and_magnet_off_on_the_megas_wire_within_50_ms() {
         "{elapsed:?} from SIGINT to the stop on the wire"
     );
     let status = round.robot.wait_exit(Duration::from_secs(10));
-    assert_eq!(status.code(), Some(130), "{}", round.robot.output());
+    assert_eq!(status.code(), Some(130), "{}", round.output());
     assert!(
         round
             .robot
@@ -468,7 +335,7 @@ fn sigint_puts_zero_references_and_magnet_off_on_the_megas_wire_within_50_ms() {
                 .iter()
                 .any(|l| l == "the robot was sent zero references and magnet off"),
         "{}",
-        round.robot.output()
+        round.output()
     );
     round.assert_nothing_after(&stop);
 }
@@ -480,7 +347,7 @@ fn a_panicking_device_thread_puts_zero_references_and_magnet_off_on_the_wire_wit
     // the loop stopping the robot (a debug build on a shared machine), as they need not on
     // the robot.
     let env = [("RATF_PANIC_DRILL", "mega"), ("RUST_BACKTRACE", "0")];
-    let mut round = Round::until_carrying("stop-panic", 1, &env);
+    let mut round = Round::until_carrying("stop-panic", "1", &env);
     // SIGUSR1 makes the Mega's own thread panic within its 5 ms read timeout.
     let (stop, elapsed) = round.stop_with(Signal::SIGUSR1);
     println!(
@@ -492,7 +359,7 @@ fn a_panicking_device_thread_puts_zero_references_and_magnet_off_on_the_wire_wit
         "{elapsed:?} from the drill's signal to the stop on the wire"
     );
     let status = round.robot.wait_exit(Duration::from_secs(10));
-    let output = round.robot.output();
+    let output = round.output();
     assert_eq!(status.code(), Some(4), "{output}");
     assert!(
         output.contains("panic drill: the mega thread panics")
