@@ -176,12 +176,13 @@ fn run(
             continue;
         };
         let (reason, delivered) = session(settings, open, clock, tx, handle, shared);
+        if shared.quitting() {
+            // The write half stays for the way out's stop command, which may come after.
+            return;
+        }
         handle.install(None);
         if delivered {
             lost_since = None;
-        }
-        if shared.quitting() {
-            return;
         }
         let alive = report(
             tx,

@@ -335,10 +335,12 @@ impl MegaThread {
             };
             lost_since = None;
             let reason = self.session(open);
-            self.handle.install(None);
             if self.shared.quitting() {
+                // The run is ending: the write half stays, for the way out's zero
+                // references and magnet off (run.rs, StopGuard), which may come after.
                 return;
             }
+            self.handle.install(None);
             let alive = report(
                 &self.tx,
                 Message::Input(Stamped::new(
@@ -407,7 +409,12 @@ impl MegaThread {
                 self.handle
                     .watchdog(self.clock.now().as_us(), self.settings.watchdog_timeout_us);
             }
+            super::drill::check();
         }
         "quit".to_owned()
     }
 }
+
+#[cfg(test)]
+#[path = "tests/mega_session.rs"]
+mod session_tests;

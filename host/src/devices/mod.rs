@@ -16,13 +16,18 @@
 //!   for `ratf check`.
 //!
 //! Device threads never stop the robot by themselves: they report faults as inputs
-//! ([`Input::DeviceFault`]), and the core stops driving.
+//! ([`Input::DeviceFault`]), and the core stops driving. [`drill`] makes one of them panic
+//! on demand, to prove that a panic stops the robot.
 
+pub mod drill;
 pub mod imu;
 pub mod lidar;
 pub mod mega;
 pub mod open_loop;
 pub mod referee;
+
+#[cfg(test)]
+mod tests;
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -240,7 +245,7 @@ impl std::fmt::Display for LinkStates {
 impl RealDevices {
     /// Devices fed by `rx` (the device threads' channel), writing through `writers`; the
     /// first host tick comes one period after now. `initial` inputs (an operator's forced
-    /// start) are handed out first, stamped now.
+    /// start) are handed out first, stamped now. Arms the [`drill`] if the environment asks.
     pub fn new(
         clock: Clock,
         rx: Receiver<Message>,
@@ -248,6 +253,9 @@ impl RealDevices {
         shared: Shared,
         initial: Vec<Input>,
     ) -> Self {
+        if let Err(problem) = drill::arm() {
+            eprintln!("{problem}");
+        }
         let now = clock.now();
         Self {
             queued: initial.into_iter().map(|i| Stamped::new(now, i)).collect(),
@@ -324,6 +332,8 @@ impl Devices for RealDevices {
                     return Err(DeviceError::Gone { device, message });
                 }
                 Err(RecvTimeoutError::Timeout) => {}
+                // Threads that ended because the run is quitting: a quit, not a failure.
+                Err(RecvTimeoutError::Disconnected) if self.shared.quitting() => return Ok(None),
                 Err(RecvTimeoutError::Disconnected) => return Err(DeviceError::Disconnected),
             }
         }
@@ -348,7 +358,9 @@ impl Devices for RealDevices {
     }
 }
 
-/// Send `message` on `tx`; false when the loop has gone (the thread should end).
+/// Send `message` on `tx`; false when the loop has gone (the thread should end). Where an
+/// armed [`drill`] panics.
 pub(crate) fn report(tx: &Sender<Message>, message: Message) -> bool {
+    drill::check();
     tx.send(message).is_ok()
 }

@@ -35,9 +35,16 @@ pub struct Spawned {
 impl Spawned {
     /// Start `ratf ARGS`, its stderr to `stderr_to`.
     pub fn start(args: &[&str], stderr_to: &Path) -> Self {
+        Self::start_with_env(args, &[], stderr_to)
+    }
+
+    /// Start `ratf ARGS` with the environment variables `env` added, its stderr to
+    /// `stderr_to`.
+    pub fn start_with_env(args: &[&str], env: &[(&str, &str)], stderr_to: &Path) -> Self {
         let stderr = std::fs::File::create(stderr_to).expect("stderr file");
         let mut child = Command::new(env!("CARGO_BIN_EXE_ratf"))
             .args(args)
+            .envs(env.iter().copied())
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(stderr)

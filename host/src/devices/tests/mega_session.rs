@@ -1,0 +1,71 @@
+//! One session of the Mega's thread on a noisy line, with the host's own link counters in
+//! view (they live in the thread, so this test runs the session itself).
+
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use ratf_core::runtime::Input;
+
+use super::{MegaHandle, MegaThread, open_port};
+use crate::devices::tests::fake_mega::FakeMega;
+use crate::devices::tests::mega_bench::{BOOT_DELAY, settings};
+use crate::devices::tests::pty::{Pty, TempDir};
+use crate::devices::{Clock, Message, Shared};
+
+#[test]
+fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
+    let dir = TempDir::new("mega-session");
+    let pty = Pty::open(&dir.0.join("mega"));
+    let settings = settings(pty.path());
+    let port = open_port(&settings.port, settings.baud).expect("the pty opens");
+    let (tx, rx) = mpsc::channel();
+    let shared = Shared::new();
+    let handle = MegaHandle::new(settings.link);
+    let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
+    let session = std::thread::spawn(move || {
+        let reason = thread.session(port);
+        (reason, thread.link.stats())
+    });
+    let mut mega = FakeMega::new(pty, BOOT_DELAY);
+    mega.noisy(11);
+    let mut telemetry = 0;
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while telemetry < 100 {
+        assert!(
+            Instant::now() < deadline,
+            "{telemetry} telemetry batches of {} sent",
+            mega.ticks.len()
+        );
+        mega.service(Instant::now() + Duration::from_millis(2));
+        while let Ok(message) = rx.try_recv() {
+            if matches!(message, Message::Input(ref s) if matches!(s.input, Input::Wheels(_))) {
+                telemetry += 1;
+            }
+        }
+    }
+    shared.request_quit();
+    let (reason, stats) = session.join().expect("no panic");
+    while let Ok(message) = rx.try_recv() {
+        if matches!(message, Message::Input(ref s) if matches!(s.input, Input::Wheels(_))) {
+            telemetry += 1;
+        }
+    }
+    assert_eq!(reason, "quit");
+    let sent = mega.ticks.len() as u32;
+    let lost = stats.link.batches_discarded() + stats.incomplete_batches;
+    println!(
+        "noise from the Mega: {} of {sent} batches delivered, {lost} counted as lost ({:?})",
+        stats.batches, stats.link
+    );
+    assert_eq!(
+        stats.batches, telemetry,
+        "every batch counted was delivered"
+    );
+    assert!(lost > 0, "{stats:?}");
+    assert!(
+        stats.batches + lost <= sent && stats.batches + lost + 2 >= sent,
+        "every batch sent is delivered or counted as lost, but for the last in flight: \
+         {} + {lost} of {sent}",
+        stats.batches
+    );
+}
