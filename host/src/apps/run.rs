@@ -9,7 +9,6 @@
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -145,6 +144,8 @@ pub struct RunReport {
     pub robot_s: f64,
     /// Inputs consumed.
     pub inputs: u64,
+    /// Inputs the device threads dropped because the loop's inbox was full.
+    pub inputs_dropped: u64,
     /// From an input's arrival to its references written.
     pub latency: Latency,
     /// Reference batches the host watchdog wrote (the core stalled).
@@ -303,7 +304,7 @@ pub fn open_devices(
     initial: Vec<Input>,
 ) -> Result<OpenDevices, RunError> {
     let clock = Clock::start();
-    let (tx, rx) = mpsc::channel();
+    let (tx, rx) = crate::devices::inbox(shared);
     let mega_settings = MegaSettings::from_config(config);
     let lidar_settings = LidarSettings::from_config(config);
 
@@ -497,6 +498,7 @@ pub fn run_robot(
         time_s,
         robot_s,
         inputs: result.map_or(0, |s| s.inputs),
+        inputs_dropped: shared.inputs_dropped(),
         latency: Latency::of(devices.latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),

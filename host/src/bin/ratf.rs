@@ -1541,7 +1541,7 @@ fn run_command(args: &RunArgs) -> ! {
     };
     println!(
         "ratf run: {}: placed {} part(s), {:.1} s from the part list to the last placement; \
-         {:.1} s of robot time, {} inputs",
+         {:.1} s of robot time, {} inputs ({} dropped: the core fell behind)",
         match &report.outcome {
             run::Outcome::Finished => "finished".to_owned(),
             run::Outcome::Interrupted => "interrupted".to_owned(),
@@ -1551,7 +1551,8 @@ fn run_command(args: &RunArgs) -> ! {
         report.placed,
         report.time_s,
         report.robot_s,
-        report.inputs
+        report.inputs,
+        report.inputs_dropped
     );
     println!(
         "latency from an input's arrival to its references written: p50 {} µs, p99 {} µs, max \

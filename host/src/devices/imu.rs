@@ -2,14 +2,13 @@
 //! IMU inputs. The bus is behind [`ImuSource`], so the loop and its tests do not need I2C;
 //! on the Pi it is `linux-embedded-hal`'s `I2cdev` ([`open_i2c`]).
 
-use std::sync::mpsc::Sender;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use ratf_core::drivers::imu::{Chip, ImuError, ImuSample, Mpu9255};
 use ratf_core::runtime::{DeviceKind, Input, Stamped};
 
-use super::{Clock, LinkState, Message, Shared, report};
+use super::{Clock, DeviceSender, LinkState, Message, Shared, report};
 
 /// Read period, µs (200 Hz, the rate the driver configures).
 pub const IMU_PERIOD_US: u64 = 5_000;
@@ -56,7 +55,7 @@ pub fn spawn(
     mut source: Box<dyn ImuSource>,
     yaw_rad: f64,
     clock: Clock,
-    tx: Sender<Message>,
+    tx: DeviceSender,
     shared: Shared,
 ) -> std::io::Result<JoinHandle<()>> {
     std::thread::Builder::new()

@@ -17,7 +17,6 @@
 
 use std::io::{ErrorKind, Read};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -28,7 +27,7 @@ use ratf_core::runtime::{DeviceKind, Input, Stamped};
 use serialport::SerialPort;
 
 use super::mega::open_port;
-use super::{Clock, LinkState, Message, Shared, report};
+use super::{Clock, DeviceSender, LinkState, Message, Shared, report};
 
 /// Where the lidar is and how to keep it.
 #[derive(Clone, Debug, PartialEq)]
@@ -134,7 +133,7 @@ pub fn spawn(
     settings: LidarSettings,
     port: Box<dyn SerialPort>,
     clock: Clock,
-    tx: Sender<Message>,
+    tx: DeviceSender,
     handle: LidarHandle,
     shared: Shared,
 ) -> std::io::Result<JoinHandle<()>> {
@@ -147,7 +146,7 @@ fn run(
     settings: &LidarSettings,
     first: Box<dyn SerialPort>,
     clock: Clock,
-    tx: &Sender<Message>,
+    tx: &DeviceSender,
     handle: &LidarHandle,
     shared: &Shared,
 ) {
@@ -209,7 +208,7 @@ fn session(
     settings: &LidarSettings,
     mut port: Box<dyn SerialPort>,
     clock: Clock,
-    tx: &Sender<Message>,
+    tx: &DeviceSender,
     handle: &LidarHandle,
     shared: &Shared,
 ) -> (String, bool) {

@@ -20,7 +20,6 @@
 //!   ([`MegaHandle::hold_open_loop`]).
 
 use std::io::{ErrorKind, Read};
-use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
@@ -33,7 +32,7 @@ use ratf_core::runtime::{DeviceKind, Input, Stamped, Timestamp, WheelCommand};
 use serialport::SerialPort;
 
 use super::open_loop::{OpenLoopHold, batch_due};
-use super::{Clock, HOST_TICK_PERIOD_US, LinkState, Message, Shared, report};
+use super::{Clock, DeviceSender, HOST_TICK_PERIOD_US, LinkState, Message, Shared, report};
 
 /// Read timeout of the port: how often the thread looks at the watchdog and the quit flag.
 const READ_TIMEOUT: Duration = Duration::from_millis(5);
@@ -272,7 +271,7 @@ pub fn spawn(
     settings: MegaSettings,
     port: Box<dyn SerialPort>,
     clock: Clock,
-    tx: Sender<Message>,
+    tx: DeviceSender,
     handle: MegaHandle,
     shared: Shared,
 ) -> std::io::Result<JoinHandle<()>> {
@@ -284,7 +283,7 @@ pub fn spawn(
 struct MegaThread {
     settings: MegaSettings,
     clock: Clock,
-    tx: Sender<Message>,
+    tx: DeviceSender,
     handle: MegaHandle,
     shared: Shared,
     link: MegaLink,
@@ -294,7 +293,7 @@ impl MegaThread {
     fn new(
         settings: MegaSettings,
         clock: Clock,
-        tx: Sender<Message>,
+        tx: DeviceSender,
         handle: MegaHandle,
         shared: Shared,
     ) -> Self {

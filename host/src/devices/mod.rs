@@ -30,8 +30,8 @@ pub mod referee;
 mod tests;
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -121,12 +121,38 @@ pub enum Message {
     },
 }
 
-/// Flags every thread of a run shares: quit (asked by the loop, a signal, or a panic) and
-/// whether a thread panicked.
+/// Messages the device threads may leave waiting for the loop: a few seconds of every
+/// device at full rate (the Mega's 50 batches, the X4's 7 scans, the IMU's samples a
+/// second), so a core that stalls for a moment loses nothing and one that hangs cannot make
+/// the queue grow without bound (its host watchdog has stopped the wheels by then).
+pub const INBOX_CAPACITY: usize = 4096;
+
+/// The device threads' end of the channel to the loop: bounded by [`INBOX_CAPACITY`]; an
+/// input that finds it full is dropped and counted ([`Shared::inputs_dropped`]).
+#[derive(Clone, Debug)]
+pub struct DeviceSender {
+    tx: SyncSender<Message>,
+    dropped: Arc<AtomicU64>,
+}
+
+/// The channel from the device threads to the loop ([`RealDevices`]), counting drops in
+/// `shared`.
+pub fn inbox(shared: &Shared) -> (DeviceSender, Receiver<Message>) {
+    let (tx, rx) = std::sync::mpsc::sync_channel(INBOX_CAPACITY);
+    let sender = DeviceSender {
+        tx,
+        dropped: Arc::clone(&shared.inputs_dropped),
+    };
+    (sender, rx)
+}
+
+/// Flags every thread of a run shares: quit (asked by the loop, a signal, or a panic),
+/// whether a thread panicked, and the inputs the loop's inbox had no room for.
 #[derive(Clone, Debug, Default)]
 pub struct Shared {
     quit: Arc<AtomicBool>,
     panicked: Arc<AtomicBool>,
+    inputs_dropped: Arc<AtomicU64>,
 }
 
 impl Shared {
@@ -159,6 +185,12 @@ impl Shared {
     /// True if a thread panicked.
     pub fn panicked(&self) -> bool {
         self.panicked.load(Ordering::SeqCst)
+    }
+
+    /// Inputs dropped because the loop's inbox was full (the core fell behind by
+    /// [`INBOX_CAPACITY`] messages).
+    pub fn inputs_dropped(&self) -> u64 {
+        self.inputs_dropped.load(Ordering::Relaxed)
     }
 }
 
@@ -358,9 +390,20 @@ impl Devices for RealDevices {
     }
 }
 
-/// Send `message` on `tx`; false when the loop has gone (the thread should end). Where an
-/// armed [`drill`] panics.
-pub(crate) fn report(tx: &Sender<Message>, message: Message) -> bool {
+/// Send `message` on `tx`; false when the loop has gone (the thread should end). An input
+/// that finds the inbox full is dropped and counted; a link change or a device gone waits
+/// for room (the loop must hear it). Where an armed [`drill`] panics.
+pub(crate) fn report(tx: &DeviceSender, message: Message) -> bool {
     drill::check();
-    tx.send(message).is_ok()
+    match message {
+        Message::Input(_) => match tx.tx.try_send(message) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                tx.dropped.fetch_add(1, Ordering::Relaxed);
+                true
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        },
+        _ => tx.tx.send(message).is_ok(),
+    }
 }

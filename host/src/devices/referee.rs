@@ -3,14 +3,13 @@
 //! stamps each datagram at arrival; the loop sends requests through a [`RefereeHandle`].
 
 use std::sync::Arc;
-use std::sync::mpsc::Sender;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
 use ratf_core::referee::protocol::Request;
 use ratf_core::runtime::{DeviceKind, Input, Stamped};
 
-use super::{Clock, LinkState, Message, Shared, report};
+use super::{Clock, DeviceSender, LinkState, Message, Shared, report};
 use crate::referee::client::RefereeLink;
 
 /// How long the thread blocks for a datagram before looking at the quit flag.
@@ -39,7 +38,7 @@ impl RefereeHandle {
 pub fn spawn(
     link: RefereeLink,
     clock: Clock,
-    tx: Sender<Message>,
+    tx: DeviceSender,
     shared: Shared,
 ) -> std::io::Result<(RefereeHandle, JoinHandle<()>)> {
     let link = Arc::new(link);

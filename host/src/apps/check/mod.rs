@@ -30,7 +30,6 @@ pub mod server;
 pub mod session;
 pub mod wheels;
 
-use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::Duration;
 
@@ -117,7 +116,7 @@ struct Opened {
 fn open(
     config: &Config,
     clock: Clock,
-    tx: &mpsc::Sender<crate::devices::Message>,
+    tx: &crate::devices::DeviceSender,
     mega: &MegaHandle,
     lidar: &LidarHandle,
     devices: &Shared,
@@ -201,7 +200,7 @@ pub fn run_check(
 ) -> CheckReport {
     let clock = Clock::start();
     let devices = Shared::new();
-    let (tx, rx) = mpsc::channel();
+    let (tx, rx) = crate::devices::inbox(&devices);
     let mega = MegaHandle::new(MegaSettings::from_config(config).link);
     let lidar = LidarHandle::new();
     let opened = open(config, clock, &tx, &mega, &lidar, &devices);

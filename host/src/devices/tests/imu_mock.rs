@@ -4,7 +4,7 @@
 //! mounting's axis mapping, bus errors.
 
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::mpsc::{self, Receiver};
+use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -77,8 +77,8 @@ struct ImuBench {
 impl ImuBench {
     fn start(bus: MockBus, config: &Config, clock: Clock) -> Self {
         let imu = Mpu9255::new(bus, config.robot.imu.driver_config()).expect("the IMU answers");
-        let (tx, rx) = mpsc::channel();
         let shared = Shared::new();
+        let (tx, rx) = crate::devices::inbox(&shared);
         let yaw_rad = config.robot.imu.yaw_deg.to_radians();
         let thread =
             imu::spawn(Box::new(imu), yaw_rad, clock, tx, shared.clone()).expect("the thread");

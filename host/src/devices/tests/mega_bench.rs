@@ -2,7 +2,7 @@
 //! end is [`FakeMega`], with the test playing the loop: it reads the thread's messages and,
 //! when asked, writes the core's references every host tick.
 
-use std::sync::mpsc::{self, Receiver};
+use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -59,8 +59,8 @@ impl MegaBench {
         let settings = settings(pty.path());
         let port = open_port(&settings.port, settings.baud).expect("the pty opens");
         let clock = Clock::start();
-        let (tx, rx) = mpsc::channel();
         let shared = Shared::new();
+        let (tx, rx) = crate::devices::inbox(&shared);
         let handle = MegaHandle::new(settings.link);
         let thread = mega::spawn(settings, port, clock, tx, handle.clone(), shared.clone())
             .expect("the thread starts");

@@ -1,7 +1,6 @@
 //! One session of the Mega's thread on a noisy line, with the host's own link counters in
 //! view (they live in the thread, so this test runs the session itself).
 
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use ratf_core::runtime::Input;
@@ -18,8 +17,8 @@ fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
     let pty = Pty::open(&dir.0.join("mega"));
     let settings = settings(pty.path());
     let port = open_port(&settings.port, settings.baud).expect("the pty opens");
-    let (tx, rx) = mpsc::channel();
     let shared = Shared::new();
+    let (tx, rx) = crate::devices::inbox(&shared);
     let handle = MegaHandle::new(settings.link);
     let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
     let session = std::thread::spawn(move || {

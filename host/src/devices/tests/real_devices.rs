@@ -18,16 +18,16 @@ use crate::referee::client::RefereeLink;
 fn threads_ending_because_the_run_quits_are_not_a_device_failure() {
     let clock = Clock::start();
     // A server link for the writers (nothing is sent): its own thread, channel and flags.
-    let (referee_tx, _referee_rx) = mpsc::channel();
     let referee_shared = Shared::new();
+    let (referee_tx, _referee_rx) = crate::devices::inbox(&referee_shared);
     let link = RefereeLink::connect(([127, 0, 0, 1], 9).into(), 0).expect("a UDP socket");
     let (referee, referee_thread) =
         referee::spawn(link, clock, referee_tx, referee_shared.clone()).expect("a thread");
     // Several times: the loop must be waiting in the channel when the flag and the hang-up
     // come, which it is for all but a few microseconds of every 20 ms tick.
     for _ in 0..5 {
-        let (tx, rx) = mpsc::channel();
         let shared = Shared::new();
+        let (tx, rx) = crate::devices::inbox(&shared);
         let writers = Writers {
             mega: MegaHandle::new(MegaLinkConfig::default()),
             lidar: LidarHandle::new(),
@@ -59,4 +59,25 @@ fn threads_ending_because_the_run_quits_are_not_a_device_failure() {
     }
     referee_shared.request_quit();
     referee_thread.join().expect("no panic");
+}
+
+/// The inbox from the device threads to the loop holds at most [`INBOX_CAPACITY`]
+/// messages: inputs beyond it are dropped and counted, never queued without bound, and a
+/// loop that has gone ends the sender.
+#[test]
+fn a_loop_that_falls_behind_loses_counted_inputs_not_memory() {
+    use crate::devices::{INBOX_CAPACITY, Message, inbox, report};
+    use ratf_core::runtime::{Stamped, Timestamp};
+    let shared = Shared::new();
+    let (tx, rx) = inbox(&shared);
+    let tick =
+        |k: usize| Message::Input(Stamped::new(Timestamp::from_us(k as u64), Input::HostTick));
+    for k in 0..INBOX_CAPACITY + 5 {
+        assert!(report(&tx, tick(k)), "the loop is still there");
+    }
+    assert_eq!(shared.inputs_dropped(), 5);
+    assert_eq!(rx.try_iter().count(), INBOX_CAPACITY);
+    assert!(report(&tx, tick(0)));
+    drop(rx);
+    assert!(!report(&tx, tick(1)), "the loop has gone");
 }

@@ -1,7 +1,7 @@
 //! The lidar's device thread over a pseudo-terminal against an emulated X4: check-code
 //! errors, packets read in pieces, a stream starting mid-packet, a lidar that never answers.
 
-use std::sync::mpsc::{self, Receiver};
+use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -41,8 +41,8 @@ impl LidarBench {
             give_up_after: give_up,
         };
         let port = open_port(&settings.port, settings.baud).expect("the pty opens");
-        let (tx, rx) = mpsc::channel();
         let shared = Shared::new();
+        let (tx, rx) = crate::devices::inbox(&shared);
         let handle = LidarHandle::new();
         let thread = lidar::spawn(
             settings,
