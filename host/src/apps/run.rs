@@ -7,7 +7,7 @@
 //! SIGTERM, a device gone for good, a panic in any thread — writes zero references and
 //! magnet off to the Mega before returning ([`StopGuard`]).
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
@@ -146,6 +146,8 @@ pub struct RunReport {
     pub inputs: u64,
     /// Inputs the device threads dropped because the loop's inbox was full.
     pub inputs_dropped: u64,
+    /// The Mega's port took the final zero references and magnet off.
+    pub stop_written: bool,
     /// From an input's arrival to its references written.
     pub latency: Latency,
     /// Reference batches the host watchdog wrote (the core stalled).
@@ -165,12 +167,25 @@ pub struct StopGuard {
     mega: MegaHandle,
     lidar: LidarHandle,
     clock: Clock,
+    stopped: bool,
+}
+
+impl StopGuard {
+    /// Stop the robot now; true if the Mega's port took the zero references and magnet off
+    /// (false: it was gone, and only the Mega's own 100 ms watchdog stops the wheels).
+    pub fn stop(mut self) -> bool {
+        self.stopped = true;
+        self.lidar.stop_scan();
+        self.mega.stop(self.clock.now())
+    }
 }
 
 impl Drop for StopGuard {
     fn drop(&mut self) {
-        self.mega.stop(self.clock.now());
-        self.lidar.stop_scan();
+        if !self.stopped {
+            self.mega.stop(self.clock.now());
+            self.lidar.stop_scan();
+        }
     }
 }
 
@@ -222,7 +237,13 @@ impl Tap for StatusTap {
             if self.terminal {
                 eprint!("\r\x1b[K");
             }
-            println!("{:7.2} s  {text}", view.input.time.as_secs_f64());
+            // A closed stdout (a reader gone) must not panic the loop: events are lost,
+            // the robot runs on.
+            let _ = writeln!(
+                std::io::stdout(),
+                "{:7.2} s  {text}",
+                view.input.time.as_secs_f64()
+            );
         }
         let Some(period) = self.period else { return };
         let now = Instant::now();
@@ -348,6 +369,7 @@ pub fn open_devices(
         mega: mega.clone(),
         lidar: lidar_handle.clone(),
         clock,
+        stopped: false,
     };
     let thread = |what: &'static str| move |source| RunError::Thread { what, source };
     let mut threads: Vec<JoinHandle<()>> = Vec::new();
@@ -461,7 +483,7 @@ pub fn run_robot(
         },
     );
     // Stop the robot first, then tidy up.
-    drop(guard);
+    let stop_written = guard.stop();
     if status.terminal && status.period.is_some() {
         eprintln!();
     }
@@ -499,6 +521,7 @@ pub fn run_robot(
         robot_s,
         inputs: result.map_or(0, |s| s.inputs),
         inputs_dropped: shared.inputs_dropped(),
+        stop_written,
         latency: Latency::of(devices.latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),

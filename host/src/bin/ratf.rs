@@ -1570,7 +1570,14 @@ fn run_command(args: &RunArgs) -> ! {
         report.recording.display(),
         report.recording.display()
     );
-    println!("the robot was sent zero references and magnet off");
+    if report.stop_written {
+        println!("the robot was sent zero references and magnet off");
+    } else {
+        println!(
+            "the Mega's port was gone at the end: no stop could be written (its own watchdog \
+             stops the wheels 100 ms after the last command; the magnet may still be on)"
+        );
+    }
     std::process::exit(report.outcome.exit_code());
 }
 
