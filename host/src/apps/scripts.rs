@@ -160,8 +160,9 @@ pub struct StopWindow {
 pub const CALIBRATION_STOP_S: f64 = 2.0;
 
 /// The calibration drive (`ratf calibrate`): a loop around machine A (heading fixed, facing
-/// +y; up 0.71 m, right 0.66 m, down, left) at 0.2 m/s with a stop at the start, halfway along each side and at each corner: nine
-/// stops, every beacon in view from each, about 35 s. Forward and strafe legs in both
+/// +y; up 0.71 m, right 0.66 m, down, left) at 0.2 m/s with a stop at the loop's first
+/// corner, halfway along each side and at each corner: nine stops, every beacon in view from
+/// each, about 37 s with the leg from the start. Forward and strafe legs in both
 /// directions, so the direction driven (which the wheels give well) shows the lidar's zero
 /// angle, and the poles are seen from 0.3 m to 1.9 m (which separates the range offset
 /// from the scale). The body on the right leg clears machine B's dividers by 0.10 m and
