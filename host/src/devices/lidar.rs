@@ -328,7 +328,8 @@ fn probe(
     handle: &LidarHandle,
     shared: &Shared,
 ) -> std::io::Result<LidarIdentity> {
-    // Stop first: an X4 still scanning from an earlier run would bury the replies.
+    // Stop first: the X4 takes requests in idle mode, and one still scanning from an
+    // earlier run would keep streaming packets between the replies.
     handle.command(Command::StopScan);
     let mut identity = LidarIdentity::default();
     let mut parser = ReplyParser::new();
