@@ -20,7 +20,7 @@
 //! head angle θ is the point at bearing θ + AngCorrect(d)).
 //!
 //! Asked for its device information (`A5 90`) or health (`A5 91`), it answers as a healthy
-//! X4 would ([`SimLidar::reply`]): model 6, firmware 1.7, hardware 1.
+//! X4 would ([`reply`]): model 6, firmware 1.7, hardware 1.
 
 use crate::serial::SerialLine;
 use ratf_core::config::{ClutterConfig, LidarConfig, RobotConfig};
@@ -54,6 +54,19 @@ pub const DEVICE_INFO: DeviceInfo = DeviceInfo {
     hardware: 1,
     serial: [2, 0, 2, 6, 1, 1, 2, 5, 0, 0, 0, 0, 0, 0, 0, 1],
 };
+
+/// The simulated X4's reply to `request`: [`DEVICE_INFO`], or a health without error. A
+/// free function, as it depends on no state: write its bytes ([`Reply::encode`]) to the
+/// host whether or not the lidar is scanning.
+pub fn reply(request: Request) -> Reply {
+    match request {
+        Request::DeviceInfo => Reply::DeviceInfo(DEVICE_INFO),
+        Request::Health => Reply::Health(Health {
+            status: HealthStatus::Ok,
+            error_code: 0,
+        }),
+    }
+}
 
 /// Something standing on or around the floor that may reach the lidar's plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,18 +218,6 @@ impl SimLidar {
         self.range_offset_m = offset_m;
         self.noise_per_m = noise_per_m;
         self
-    }
-
-    /// The reply to `request`: [`DEVICE_INFO`], or a health without error. Write its bytes
-    /// ([`Reply::encode`]) to the host whether or not the lidar is scanning.
-    pub fn reply(&self, request: Request) -> Reply {
-        match request {
-            Request::DeviceInfo => Reply::DeviceInfo(DEVICE_INFO),
-            Request::Health => Reply::Health(Health {
-                status: HealthStatus::Ok,
-                error_code: 0,
-            }),
-        }
     }
 
     /// Time between two samples, ns.
@@ -388,10 +389,9 @@ mod tests {
     #[test]
     fn it_answers_device_info_and_health_as_a_healthy_x4() {
         use ratf_core::drivers::x4::info::ReplyParser;
-        let (_, lidar) = scan_once(Pose2::new(1.0, 1.0, 0.0), 0.0);
         let mut bytes = Vec::new();
         for request in [Request::DeviceInfo, Request::Health] {
-            lidar.reply(request).encode(&mut bytes);
+            reply(request).encode(&mut bytes);
         }
         let mut replies = Vec::new();
         ReplyParser::new().feed(&bytes, |r| replies.push(r));
