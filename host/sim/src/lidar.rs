@@ -18,9 +18,13 @@
 //! below the minimum or beyond the maximum range; the distance quantisation (0.25 mm) and
 //! angle quantisation (1/64°) of the packet format; the X4's angle correction (the sample at
 //! head angle θ is the point at bearing θ + AngCorrect(d)).
+//!
+//! Asked for its device information (`A5 90`) or health (`A5 91`), it answers as a healthy
+//! X4 would ([`reply`]): model 6, firmware 1.7, hardware 1.
 
 use crate::serial::SerialLine;
 use ratf_core::config::{ClutterConfig, LidarConfig, RobotConfig};
+use ratf_core::drivers::x4::info::{DeviceInfo, Health, HealthStatus, MODEL_X4, Reply, Request};
 use ratf_core::drivers::x4::packet::{
     CORRECTION_BASE_MM, CORRECTION_OFFSET_MM, PacketSpec, encode_packet,
 };
@@ -40,6 +44,29 @@ const SAMPLES_PER_PACKET: usize = 40;
 const BEAM_OFFSET_M: f64 = CORRECTION_OFFSET_MM / 1000.0;
 /// Where the beam crosses the head's axis, m (see [`BEAM_OFFSET_M`]).
 const BEAM_CROSSING_M: f64 = CORRECTION_BASE_MM / 1000.0;
+
+/// What the simulated X4 says it is: model 6 (the X4), firmware 1.7 and hardware 1 (values
+/// seen on sold units; any would do), a serial number of one digit a byte as the X4 sends.
+pub const DEVICE_INFO: DeviceInfo = DeviceInfo {
+    model: MODEL_X4,
+    firmware_major: 1,
+    firmware_minor: 7,
+    hardware: 1,
+    serial: [2, 0, 2, 6, 1, 1, 2, 5, 0, 0, 0, 0, 0, 0, 0, 1],
+};
+
+/// The simulated X4's reply to `request`: [`DEVICE_INFO`], or a health without error. A
+/// free function, as it depends on no state: write its bytes ([`Reply::encode`]) to the
+/// host whether or not the lidar is scanning.
+pub fn reply(request: Request) -> Reply {
+    match request {
+        Request::DeviceInfo => Reply::DeviceInfo(DEVICE_INFO),
+        Request::Health => Reply::Health(Health {
+            status: HealthStatus::Ok,
+            error_code: 0,
+        }),
+    }
+}
 
 /// Something standing on or around the floor that may reach the lidar's plane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -357,6 +384,31 @@ mod tests {
             t = next;
         }
         (scans, lidar)
+    }
+
+    #[test]
+    fn it_answers_device_info_and_health_as_a_healthy_x4() {
+        use ratf_core::drivers::x4::info::ReplyParser;
+        let mut bytes = Vec::new();
+        for request in [Request::DeviceInfo, Request::Health] {
+            reply(request).encode(&mut bytes);
+        }
+        let mut replies = Vec::new();
+        ReplyParser::new().feed(&bytes, |r| replies.push(r));
+        assert_eq!(
+            replies,
+            [
+                Reply::DeviceInfo(DEVICE_INFO),
+                Reply::Health(Health {
+                    status: HealthStatus::Ok,
+                    error_code: 0
+                })
+            ]
+        );
+        assert_eq!(
+            DEVICE_INFO.describe(),
+            "X4, firmware 1.7, hardware 1, serial 2026112500000001"
+        );
     }
 
     #[test]

@@ -7,6 +7,12 @@
 //! arrived. The X4 sends nothing until its start command `A5 60`, which the loop writes
 //! when the core asks ([`LidarHandle::start_scan`]).
 //!
+//! - **Identity**: before each start command (after opening or reopening the port) the
+//!   thread sends stop, then asks for the device information (`A5 90`) and the health
+//!   (`A5 91`), waiting [`PROBE_TIMEOUT`] for each reply. What comes is kept in the handle
+//!   ([`LidarHandle::identity`]); a health *error* is reported as [`Input::DeviceFault`]
+//!   naming the X4's error code. A lidar that answers neither is still started and used:
+//!   clones of the X4 may not implement the two requests.
 //! - **Spin-up**: after the start command the X4 may stay silent while its motor comes up
 //!   to speed; if no revolution arrives within `[link] lidar_spinup_timeout_ms` (or the
 //!   stream stops that long), the port is reopened and the command sent again.
@@ -21,6 +27,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use ratf_core::drivers::x4::info::{DeviceInfo, Health, HealthStatus, Reply, ReplyParser, Request};
 use ratf_core::drivers::x4::scan::ScanConfig;
 use ratf_core::drivers::x4::{Command, X4Driver};
 use ratf_core::runtime::{DeviceKind, Input, Stamped};
@@ -28,6 +35,19 @@ use serialport::SerialPort;
 
 use super::mega::open_port;
 use super::{Clock, DeviceSender, LinkState, Message, Shared, report};
+
+/// How long the thread waits for each reply to the device-information and health requests
+/// (the replies are 27 and 10 bytes, about 2 ms on the line; YDLIDAR's SDK waits 500 ms).
+pub const PROBE_TIMEOUT: Duration = Duration::from_millis(300);
+
+/// What the X4 said about itself at the last (re)opening: `None` where it did not answer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LidarIdentity {
+    /// The reply to the device-information request.
+    pub info: Option<DeviceInfo>,
+    /// The reply to the health request.
+    pub health: Option<Health>,
+}
 
 /// Where the lidar is and how to keep it.
 #[derive(Clone, Debug, PartialEq)]
@@ -70,6 +90,7 @@ impl LidarSettings {
 pub struct LidarHandle {
     port: Arc<Mutex<Option<Box<dyn SerialPort>>>>,
     wanted: Arc<AtomicBool>,
+    identity: Arc<Mutex<Option<LidarIdentity>>>,
 }
 
 impl Default for LidarHandle {
@@ -84,7 +105,14 @@ impl LidarHandle {
         Self {
             port: Arc::new(Mutex::new(None)),
             wanted: Arc::new(AtomicBool::new(false)),
+            identity: Arc::new(Mutex::new(None)),
         }
+    }
+
+    /// What the X4 said about itself before its last start command (`None` before the
+    /// first), for the wiring check and the logs.
+    pub fn identity(&self) -> Option<LidarIdentity> {
+        *self.identity.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
     fn lock(&self) -> MutexGuard<'_, Option<Box<dyn SerialPort>>> {
@@ -108,12 +136,16 @@ impl LidarHandle {
     }
 
     fn command(&self, command: Command) -> bool {
+        self.write(&command.bytes())
+    }
+
+    fn write(&self, bytes: &[u8]) -> bool {
         let mut port = self.lock();
         let Some(writer) = port.as_mut() else {
             return false;
         };
         if writer
-            .write_all(&command.bytes())
+            .write_all(bytes)
             .and_then(|()| writer.flush())
             .is_err()
         {
@@ -226,6 +258,28 @@ fn session(
     while !shared.quitting() {
         if started_at.is_none() && handle.scanning_wanted() {
             // The core asked (once: after a reconnection the thread asks again).
+            let identity = match probe(&mut port, handle, shared) {
+                Ok(identity) => identity,
+                Err(e) => return (format!("read failed: {e}"), delivered),
+            };
+            *handle
+                .identity
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner) = Some(identity);
+            if let Some(health) = identity.health.filter(|h| h.status == HealthStatus::Error) {
+                let message = format!(
+                    "{}: the X4 reports a health error (error code 0x{:04X}); power it off \
+                     and on again, and replace it if the error stays",
+                    settings.port, health.error_code
+                );
+                let fault = Input::DeviceFault {
+                    device: DeviceKind::Lidar,
+                    message,
+                };
+                if !report(tx, Message::Input(Stamped::new(clock.now(), fault))) {
+                    return ("the loop ended".to_owned(), delivered);
+                }
+            }
             handle.command(Command::StartScan);
             started_at = Some(Instant::now());
         }
@@ -264,4 +318,43 @@ fn session(
         }
     }
     ("quit".to_owned(), delivered)
+}
+
+/// Stop the X4, then ask for its device information and health, waiting [`PROBE_TIMEOUT`]
+/// for each reply. A request without a reply is no error: clones of the X4 may not
+/// implement them, and the lidar is started and used all the same. Only a read error fails.
+fn probe(
+    port: &mut Box<dyn SerialPort>,
+    handle: &LidarHandle,
+    shared: &Shared,
+) -> std::io::Result<LidarIdentity> {
+    // Stop first: the X4 takes requests in idle mode, and one still scanning from an
+    // earlier run would keep streaming packets between the replies.
+    handle.command(Command::StopScan);
+    let mut identity = LidarIdentity::default();
+    let mut parser = ReplyParser::new();
+    let mut buf = [0u8; 256];
+    for request in [Request::DeviceInfo, Request::Health] {
+        handle.write(&request.bytes());
+        let deadline = Instant::now() + PROBE_TIMEOUT;
+        let mut answered = false;
+        while !answered && Instant::now() < deadline && !shared.quitting() {
+            let n = match port.read(&mut buf) {
+                Ok(n) => n,
+                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::Interrupted) => 0,
+                Err(e) => return Err(e),
+            };
+            parser.feed(&buf[..n], |reply| match reply {
+                Reply::DeviceInfo(info) => {
+                    answered |= request == Request::DeviceInfo;
+                    identity.info = Some(info);
+                }
+                Reply::Health(health) => {
+                    answered |= request == Request::Health;
+                    identity.health = Some(health);
+                }
+            });
+        }
+    }
+    Ok(identity)
 }

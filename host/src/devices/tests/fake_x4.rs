@@ -4,13 +4,16 @@
 //! (13 bytes a millisecond), so the host reads packets in pieces; quiet again at `A5 65`.
 //! It can damage its stream: a bad check code in every other revolution, a stream that
 //! starts in the middle of a packet, or no answer at all. Unplugged, it loses power: silent
-//! again until the next start command.
+//! again until the next start command. It answers the device-information and health
+//! requests (an X4, model 6, healthy) unless told to keep quiet, as some clones do, or to
+//! report a health error.
 
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
 use ratf_core::drivers::x4::encoder::RevolutionEncoder;
-use ratf_core::drivers::x4::{Command, CommandDecoder, RESPONSE_HEADER};
+use ratf_core::drivers::x4::info::{DeviceInfo, Health, HealthStatus, MODEL_X4, Reply, Request};
+use ratf_core::drivers::x4::{Command, CommandDecoder, RESPONSE_HEADER, Received};
 
 use super::pty::Pty;
 
@@ -37,7 +40,23 @@ pub(crate) enum Fault {
     StartsMidPacket,
     /// Never sends a byte.
     Silent,
+    /// Scans, but ignores the device-information and health requests (as some clones do).
+    NoIdentity,
+    /// Scans, and its health is an error with code [`HEALTH_ERROR_CODE`].
+    HealthError,
 }
+
+/// The error code of [`Fault::HealthError`].
+pub(crate) const HEALTH_ERROR_CODE: u16 = 0x0102;
+
+/// What the emulated X4 says it is.
+pub(crate) const INFO: DeviceInfo = DeviceInfo {
+    model: MODEL_X4,
+    firmware_major: 1,
+    firmware_minor: 7,
+    hardware: 1,
+    serial: [2, 0, 1, 7, 0, 1, 0, 1, 0, 0, 0, 0, 0, 0, 4, 2],
+};
 
 /// The emulated X4: see the module documentation.
 pub(crate) struct FakeX4 {
@@ -47,6 +66,8 @@ pub(crate) struct FakeX4 {
     decoder: CommandDecoder,
     /// Every command the host sent, with its arrival.
     pub(crate) commands: Vec<(Instant, Command)>,
+    /// Every command and request the host sent, in order.
+    pub(crate) received: Vec<Received>,
     streaming: bool,
     revolutions: u32,
     next_revolution: Instant,
@@ -68,6 +89,7 @@ impl FakeX4 {
             fault,
             decoder: CommandDecoder::new(),
             commands: Vec::new(),
+            received: Vec::new(),
             streaming: false,
             revolutions: 0,
             next_revolution: now,
@@ -105,11 +127,17 @@ impl FakeX4 {
             }
             let bytes = self.pty.read_until(next);
             let now = Instant::now();
-            let mut commands = Vec::new();
-            self.decoder.feed(&bytes, |c| commands.push(c));
-            for command in commands {
-                self.commands.push((now, command));
-                self.command(command, now);
+            let mut received = Vec::new();
+            self.decoder.feed_all(&bytes, |r| received.push(r));
+            for r in received {
+                self.received.push(r);
+                match r {
+                    Received::Command(command) => {
+                        self.commands.push((now, command));
+                        self.command(command, now);
+                    }
+                    Received::Request(request) => self.answer(request),
+                }
             }
             if self.streaming && now >= self.next_revolution {
                 self.revolution();
@@ -145,6 +173,24 @@ impl FakeX4 {
             }
             Command::StartScan | Command::SoftRestart => {}
         }
+    }
+
+    fn answer(&mut self, request: Request) {
+        let reply = match (request, self.fault) {
+            (_, Fault::Silent | Fault::NoIdentity) => return,
+            (Request::DeviceInfo, _) => Reply::DeviceInfo(INFO),
+            (Request::Health, Fault::HealthError) => Reply::Health(Health {
+                status: HealthStatus::Error,
+                error_code: HEALTH_ERROR_CODE,
+            }),
+            (Request::Health, _) => Reply::Health(Health {
+                status: HealthStatus::Ok,
+                error_code: 0,
+            }),
+        };
+        let mut bytes = Vec::new();
+        reply.encode(&mut bytes);
+        self.outbox.extend(bytes);
     }
 
     fn encode(&self, out: &mut Vec<u8>) {

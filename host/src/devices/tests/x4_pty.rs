@@ -1,17 +1,19 @@
 //! The lidar's device thread over a pseudo-terminal against an emulated X4: check-code
-//! errors, packets read in pieces, a stream starting mid-packet, a lidar that never answers.
+//! errors, packets read in pieces, a stream starting mid-packet, a lidar that never answers,
+//! the device information and health asked before the scan (answered, ignored, an error).
 
 use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use ratf_core::drivers::x4::Command;
+use ratf_core::drivers::x4::info::{Health, HealthStatus, Request};
 use ratf_core::drivers::x4::scan::{Scan, ScanConfig};
+use ratf_core::drivers::x4::{Command, Received};
 use ratf_core::runtime::{DeviceKind, Input};
 
-use super::fake_x4::{FakeX4, Fault, PER_PACKET, SAMPLES, distance_mm};
+use super::fake_x4::{FakeX4, Fault, HEALTH_ERROR_CODE, INFO, PER_PACKET, SAMPLES, distance_mm};
 use super::pty::{Pty, TempDir};
-use crate::devices::lidar::{self, LidarHandle, LidarSettings};
+use crate::devices::lidar::{self, LidarHandle, LidarIdentity, LidarSettings};
 use crate::devices::mega::open_port;
 use crate::devices::{Clock, LinkState, Message, Shared};
 
@@ -202,7 +204,15 @@ fn scans_come_whole_through_check_code_errors_and_packets_read_in_pieces() {
     assert!(bench.faults().is_empty(), "{:?}", bench.faults());
     assert_eq!(bench.x4.starts(), 1);
 
-    // The way out: every thread quits, then the loop stops the lidar.
+    // The way out: every thread quits, then the loop stops the lidar (one stop came
+    // already, before the start command).
+    let stops = |b: &LidarBench| {
+        b.x4.commands
+            .iter()
+            .filter(|(_, c)| *c == Command::StopScan)
+            .count()
+    };
+    let stops_before = stops(&bench);
     bench.shared.request_quit();
     let thread = bench.thread.take().expect("the thread");
     let deadline = Instant::now() + Duration::from_secs(2);
@@ -213,7 +223,7 @@ fn scans_come_whole_through_check_code_errors_and_packets_read_in_pieces() {
     thread.join().expect("no panic");
     bench.handle.stop_scan();
     bench.wait_for(Duration::from_secs(1), "the stop command", |b| {
-        b.x4.commands.iter().any(|(_, c)| *c == Command::StopScan)
+        stops(b) > stops_before
     });
 }
 
@@ -330,4 +340,82 @@ fn an_unplugged_lidar_is_reopened_and_started_again() {
         ]
     );
     assert!(bench.gone().is_none());
+}
+
+/// What the thread sends before the scan: stop, device information, health, start.
+const BEFORE_THE_SCAN: [Received; 4] = [
+    Received::Command(Command::StopScan),
+    Received::Request(Request::DeviceInfo),
+    Received::Request(Request::Health),
+    Received::Command(Command::StartScan),
+];
+
+#[test]
+fn device_info_and_health_are_asked_for_before_the_scan_starts() {
+    let mut bench = LidarBench::start(
+        "x4-identity",
+        Fault::CorruptOddRevolutions,
+        Duration::from_secs(2),
+        Duration::from_secs(10),
+    );
+    bench.handle.start_scan();
+    bench.wait_for(Duration::from_secs(5), "two revolutions", |b| {
+        b.scans().len() >= 2
+    });
+    assert_eq!(bench.x4.received[..4], BEFORE_THE_SCAN);
+    assert_eq!(
+        bench.handle.identity(),
+        Some(LidarIdentity {
+            info: Some(INFO),
+            health: Some(Health {
+                status: HealthStatus::Ok,
+                error_code: 0,
+            }),
+        })
+    );
+    assert!(bench.faults().is_empty(), "{:?}", bench.faults());
+}
+
+#[test]
+fn a_lidar_that_ignores_info_and_health_is_still_started_and_used() {
+    let mut bench = LidarBench::start(
+        "x4-clone",
+        Fault::NoIdentity,
+        Duration::from_secs(2),
+        Duration::from_secs(10),
+    );
+    bench.handle.start_scan();
+    bench.wait_for(Duration::from_secs(5), "two revolutions", |b| {
+        b.scans().len() >= 2
+    });
+    assert_eq!(bench.x4.received[..4], BEFORE_THE_SCAN);
+    assert_eq!(bench.handle.identity(), Some(LidarIdentity::default()));
+    for scan in bench.scans() {
+        assert_eq!(scan.points.len(), SAMPLES, "{scan:?}");
+    }
+    assert!(bench.faults().is_empty(), "{:?}", bench.faults());
+    assert_eq!(bench.links(), [LinkState::Syncing, LinkState::Up]);
+}
+
+#[test]
+fn a_health_error_is_a_device_fault_naming_the_error_code() {
+    let mut bench = LidarBench::start(
+        "x4-health",
+        Fault::HealthError,
+        Duration::from_secs(2),
+        Duration::from_secs(10),
+    );
+    let port = bench.x4.pty.path();
+    bench.handle.start_scan();
+    bench.wait_for(Duration::from_secs(5), "the fault and a revolution", |b| {
+        !b.faults().is_empty() && !b.scans().is_empty()
+    });
+    assert_eq!(
+        bench.faults(),
+        [format!(
+            "{port}: the X4 reports a health error (error code 0x{HEALTH_ERROR_CODE:04X}); \
+             power it off and on again, and replace it if the error stays"
+        )]
+    );
+    assert_eq!(bench.x4.received[..4], BEFORE_THE_SCAN);
 }

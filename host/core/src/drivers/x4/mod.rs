@@ -4,6 +4,7 @@
 //! - [`parser`]: bytes (any chunking) → verified packets;
 //! - [`scan`]: packets → timestamped revolutions in the robot's angle convention;
 //! - [`encoder`]: revolutions → bytes, for the simulator;
+//! - [`info`]: the device-information and health requests and their replies;
 //! - here: the host's commands, the response header, and [`X4Driver`], parser + assembler.
 //!
 //! The serial link runs at 128 000 baud, 8N1 (the real port is opened elsewhere). The host
@@ -11,10 +12,12 @@
 //! packets until [`Command::StopScan`].
 
 pub mod encoder;
+pub mod info;
 pub mod packet;
 pub mod parser;
 pub mod scan;
 
+use info::Request;
 use parser::{Event, PacketParser, ParserStats};
 use scan::{Scan, ScanAssembler, ScanConfig};
 
@@ -57,6 +60,15 @@ impl Command {
     }
 }
 
+/// What the X4 received from the host: a command, or a request with a single reply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Received {
+    /// A scan command.
+    Command(Command),
+    /// A device-information or health request.
+    Request(Request),
+}
+
 /// The X4's side of the command link: bytes from the host → commands (for the simulator).
 /// Unknown commands and stray bytes are skipped.
 #[derive(Clone, Copy, Debug, Default)]
@@ -72,13 +84,26 @@ impl CommandDecoder {
         }
     }
 
-    /// Feed host bytes (any chunking); `on_command` gets every recognised command.
+    /// Feed host bytes (any chunking); `on_command` gets every recognised command (requests
+    /// are skipped: see [`Self::feed_all`]).
     pub fn feed(&mut self, bytes: &[u8], mut on_command: impl FnMut(Command)) {
+        self.feed_all(bytes, |received| {
+            if let Received::Command(command) = received {
+                on_command(command);
+            }
+        });
+    }
+
+    /// Feed host bytes (any chunking); `on_received` gets every recognised command and
+    /// request.
+    pub fn feed_all(&mut self, bytes: &[u8], mut on_received: impl FnMut(Received)) {
         for &byte in bytes {
             if self.after_prefix {
                 self.after_prefix = byte == COMMAND_PREFIX;
                 if let Some(command) = Command::from_code(byte) {
-                    on_command(command);
+                    on_received(Received::Command(command));
+                } else if let Some(request) = Request::from_code(byte) {
+                    on_received(Received::Request(request));
                 }
             } else {
                 self.after_prefix = byte == COMMAND_PREFIX;
@@ -157,6 +182,18 @@ mod tests {
         decoder.feed(&[0x00, 0xA5], |c| got.push(c));
         decoder.feed(&[0x60, 0xA5, 0xA5, 0x65, 0xA5, 0x99, 0x65], |c| got.push(c));
         assert_eq!(got, [Command::StartScan, Command::StopScan]);
+        let mut all = Vec::new();
+        decoder.feed_all(&[0xA5, 0x65, 0x90, 0xA5, 0x90, 0xA5], |r| all.push(r));
+        decoder.feed_all(&[0x91, 0xA5, 0x60], |r| all.push(r));
+        assert_eq!(
+            all,
+            [
+                Received::Command(Command::StopScan),
+                Received::Request(Request::DeviceInfo),
+                Received::Request(Request::Health),
+                Received::Command(Command::StartScan),
+            ]
+        );
     }
 
     proptest! {
