@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 
 use nix::poll::{PollFd, PollFlags, PollTimeout};
 use ratf_core::config::Config;
-use ratf_core::drivers::x4::{Command, CommandDecoder};
+use ratf_core::drivers::x4::{Command, CommandDecoder, Received};
 use ratf_core::field::{Field, PartColor};
 use ratf_core::planning::tasks::Rules;
 use ratf_sim::parts::PartEvent;
@@ -307,17 +307,25 @@ pub fn serve(
             world.send_to_mega(&from_robot);
         }
         let commands = lidar.read_all();
-        decoder.feed(&commands, |command| {
-            streaming = match command {
-                Command::StartScan => true,
-                Command::StopScan => false,
-                Command::SoftRestart => streaming,
-            };
-            on_event(&ServeEvent::Lidar {
-                t_s: world.now_us() as f64 * 1e-6,
-                command,
-            });
+        let mut replies = Vec::new();
+        decoder.feed_all(&commands, |received| match received {
+            Received::Command(command) => {
+                streaming = match command {
+                    Command::StartScan => true,
+                    Command::StopScan => false,
+                    Command::SoftRestart => streaming,
+                };
+                on_event(&ServeEvent::Lidar {
+                    t_s: world.now_us() as f64 * 1e-6,
+                    command,
+                });
+            }
+            // The X4 answers its device information and health at once, scanning or not.
+            Received::Request(request) => ratf_sim::lidar::reply(request).encode(&mut replies),
         });
+        if lidar_up && !replies.is_empty() {
+            lidar.write(&replies);
+        }
         while world.now_us() < target_us.min(limit_us) {
             if !server_started && world.now_us() >= start_us {
                 server.referee_mut().start(world.now_us());
