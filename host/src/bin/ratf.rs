@@ -1228,7 +1228,6 @@ fn write_calibrated(
 fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
     use ratf_host::apps::calibrate::robot::{self, RobotCalibrateError, RobotOptions};
     use ratf_host::apps::run;
-    use ratf_host::devices::Shared;
     let exit = |code: i32, message: &str| -> ! {
         eprintln!("ratf calibrate: {message}");
         std::process::exit(code);
@@ -1258,12 +1257,7 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
     if let Err(e) = fs::create_dir_all(&args.out) {
         exit(1, &format!("creating {}: {e}", args.out.display()));
     }
-    let shared = Shared::new();
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
-            exit(1, &format!("installing the signal handlers: {e}"));
-        }
-    }
+    let shared = quit_on_signals_and_panics("ratf calibrate", 1);
     let options = RobotOptions {
         tape: args.tape.clone(),
         recording: run::timestamped_recording(&args.out, "calibration"),
@@ -1492,10 +1486,29 @@ fn load_robot_or_exit(path: &Path, program: &str, exit_code: i32) -> Config {
     }
 }
 
+/// Flags for a run on the robot's devices: SIGINT and SIGTERM ask it to quit, and a panic in
+/// any thread marks it and asks it to quit (the loop sees the flag within a tick, and the
+/// robot is stopped on the way out); on failure the program ends with `exit_code`.
+fn quit_on_signals_and_panics(program: &str, exit_code: i32) -> ratf_host::devices::Shared {
+    let shared = ratf_host::devices::Shared::new();
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
+            eprintln!("{program}: installing the signal handlers: {e}");
+            std::process::exit(exit_code);
+        }
+    }
+    let previous = std::panic::take_hook();
+    let on_panic = shared.clone();
+    std::panic::set_hook(Box::new(move |info| {
+        on_panic.mark_panicked();
+        previous(info);
+    }));
+    shared
+}
+
 /// `ratf run`: exits with the codes its help lists.
 fn run_command(args: &RunArgs) -> ! {
     use ratf_host::apps::run::{self, EXIT_SETUP, RunOptions};
-    use ratf_host::devices::Shared;
     let fail = |message: &str| -> ! {
         eprintln!("ratf run: {message}");
         std::process::exit(EXIT_SETUP);
@@ -1512,19 +1525,7 @@ fn run_command(args: &RunArgs) -> ! {
     if let Err(e) = fs::create_dir_all(&args.out) {
         fail(&format!("creating {}: {e}", args.out.display()));
     }
-    let shared = Shared::new();
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, shared.quit_flag()) {
-            fail(&format!("installing the signal handlers: {e}"));
-        }
-    }
-    // A panic in any thread stops the run (the loop sees the flag within a tick).
-    let previous = std::panic::take_hook();
-    let on_panic = shared.clone();
-    std::panic::set_hook(Box::new(move |info| {
-        on_panic.mark_panicked();
-        previous(info);
-    }));
+    let shared = quit_on_signals_and_panics("ratf run", EXIT_SETUP);
     let options = RunOptions {
         force_start,
         recording: run::default_recording(&args.out),
@@ -1586,24 +1587,8 @@ fn check_command(args: &CheckArgs) -> ! {
     use ratf_host::apps::check::operator::{Operator, Terminal, Unattended};
     use ratf_host::apps::check::report::EXIT_SETUP;
     use ratf_host::apps::check::{self, CheckOptions};
-    use ratf_host::devices::Shared;
-    let fail = |message: &str| -> ! {
-        eprintln!("ratf check: {message}");
-        std::process::exit(EXIT_SETUP);
-    };
     let config = load_robot_or_exit(&args.config, "ratf check", EXIT_SETUP);
-    let interrupt = Shared::new();
-    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        if let Err(e) = signal_hook::flag::register(signal, interrupt.quit_flag()) {
-            fail(&format!("installing the signal handlers: {e}"));
-        }
-    }
-    let previous = std::panic::take_hook();
-    let on_panic = interrupt.clone();
-    std::panic::set_hook(Box::new(move |info| {
-        on_panic.mark_panicked();
-        previous(info);
-    }));
+    let interrupt = quit_on_signals_and_panics("ratf check", EXIT_SETUP);
     let options = CheckOptions {
         observe_s: args.observe_s,
         on_field: !args.off_field,
