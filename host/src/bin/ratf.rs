@@ -87,7 +87,8 @@ enum Command {
         0  (+0.888, +0.538) m    1  (-0.888, +0.538) m\n  \
         2  (+0.888, -0.538) m    3  (-0.888, -0.538) m\n\
         Exit codes with --robot: 0 calibrated, 1 could not start (configuration, device), \
-        2 bad command line, 3 a device failed or the fit was refused, 130 Ctrl-C or SIGTERM. \
+        2 bad command line, 3 a device failed or the fit was refused, 4 a thread panicked, \
+        130 Ctrl-C or SIGTERM. \
         On every way out the Mega gets zero references and magnet off first."
     )]
     Calibrate(CalibrateArgs),
@@ -1263,6 +1264,12 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
         recording: run::timestamped_recording(&args.out, "calibration"),
     };
     let result = robot::run_on_robot(&config, &options, &shared);
+    if shared.panicked() {
+        exit(
+            4,
+            "a thread panicked; the robot was sent zero references and magnet off",
+        );
+    }
     let calibrated = match result {
         Ok(calibrated) => calibrated,
         Err(RobotCalibrateError::Setup(e)) => exit(1, &e.to_string()),
