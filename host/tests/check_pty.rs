@@ -61,6 +61,12 @@ fn ratf_check_finds_every_served_device_ok_and_each_wheel_turning_its_own_way() 
         (lidar["rotation_hz"].as_f64().unwrap() - 7.0).abs() < 1.0,
         "{lidar}"
     );
+    // The served X4 answered its device information and health requests.
+    let identity = lidar["identity"].as_str().unwrap_or_default();
+    assert!(
+        identity.starts_with("X4, firmware 1.7") && identity.ends_with("health ok"),
+        "{lidar}"
+    );
     // From the start pose, every configured beacon is where the world put it.
     for beacon in lidar["beacons"].as_array().unwrap() {
         assert!(beacon["found_fraction"].as_f64().unwrap() >= 0.9, "{lidar}");

@@ -17,6 +17,9 @@ use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::localisation::beacons::{self, Expected, extract};
 use serde::Serialize;
 
+use crate::devices::lidar::LidarIdentity;
+use ratf_core::drivers::x4::info::HealthStatus;
+
 /// Where each beacon should be, and how to look for it.
 #[derive(Clone, Debug)]
 pub struct BeaconSearch {
@@ -165,6 +168,7 @@ impl LidarWindow {
             packets_dropped: self.scans.iter().map(|s| s.packets_dropped).sum(),
             beacons,
             device_faults: self.device_faults.clone(),
+            identity: String::new(),
         }
     }
 }
@@ -214,6 +218,22 @@ pub struct LidarSummary {
     pub beacons: Vec<BeaconSeen>,
     /// Faults the lidar's thread reported.
     pub device_faults: Vec<String>,
+    /// What the X4 said of itself (device information and health), in a person's words.
+    pub identity: String,
+}
+
+/// The X4's answers to the device-information and health requests, in a person's words.
+pub fn identity_text(identity: Option<&LidarIdentity>) -> String {
+    let info = identity.and_then(|i| i.info).map_or_else(
+        || "no device information (a clone?)".to_owned(),
+        |i| i.describe(),
+    );
+    let health = match identity.and_then(|i| i.health) {
+        None => "no health report".to_owned(),
+        Some(h) if h.status == HealthStatus::Ok => "health ok".to_owned(),
+        Some(h) => format!("health {:?}, error code 0x{:04X}", h.status, h.error_code),
+    };
+    format!("{info}; {health}")
 }
 
 impl LidarSummary {
@@ -289,8 +309,9 @@ impl LidarSummary {
             .collect::<Vec<_>>()
             .join(", ");
         format!(
-            "{:.1} Hz ({:.1} Hz reported), {:.0} points per scan of {:.0} samples, {} bad \
+            "{}; {:.1} Hz ({:.1} Hz reported), {:.0} points per scan of {:.0} samples, {} bad \
              packets; beacons{}: {beacons}",
+            self.identity,
             self.rotation_hz,
             self.reported_hz,
             self.points_per_scan,
@@ -308,6 +329,41 @@ impl LidarSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_x4_s_identity_reads_as_a_person_would_say_it() {
+        use ratf_core::drivers::x4::info::{DeviceInfo, Health};
+        assert_eq!(
+            identity_text(None),
+            "no device information (a clone?); no health report"
+        );
+        let info = DeviceInfo {
+            model: 6,
+            firmware_major: 1,
+            firmware_minor: 7,
+            hardware: 1,
+            serial: [2; 16],
+        };
+        let healthy = LidarIdentity {
+            info: Some(info),
+            health: Some(Health {
+                status: HealthStatus::Ok,
+                error_code: 0,
+            }),
+        };
+        assert_eq!(
+            identity_text(Some(&healthy)),
+            "X4, firmware 1.7, hardware 1, serial 2222222222222222; health ok"
+        );
+        let failing = LidarIdentity {
+            health: Some(Health {
+                status: HealthStatus::Error,
+                error_code: 0x0102,
+            }),
+            ..healthy
+        };
+        assert!(identity_text(Some(&failing)).ends_with("health Error, error code 0x0102"));
+    }
     use ratf_core::drivers::x4::scan::ScanPoint;
     use ratf_core::field::Field;
 

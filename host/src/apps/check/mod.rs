@@ -219,7 +219,7 @@ pub fn run_check(
     let mut check = Check {
         config,
         options,
-        session: Session::new(clock, rx, interrupt, search, mega),
+        session: Session::new(clock, rx, interrupt, search, mega, lidar.clone()),
         operator,
         opened: &opened,
         devices: Vec::new(),

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use serde_json::json;
 
 use super::report::DeviceReport;
-use super::{Check, bounded};
+use super::{Check, bounded, lidar};
 use crate::devices::open_loop::OpenLoopHold;
 
 impl Check<'_, '_> {
@@ -70,7 +70,8 @@ impl Check<'_, '_> {
         let lidar = match &self.opened.lidar {
             Err(problem) => DeviceReport::missing("lidar", problem.clone()),
             Ok(()) => {
-                let summary = self.session.lidar_window.summary(window_s);
+                let mut summary = self.session.lidar_window.summary(window_s);
+                summary.identity = lidar::identity_text(self.session.lidar.identity().as_ref());
                 let on_field = self.options.on_field;
                 let problems = summary.problems(config, &config.link.lidar_port, on_field);
                 DeviceReport::checked(

@@ -43,6 +43,8 @@ pub struct Session<'a> {
     telemetry_seen: bool,
     /// The Mega's writer (holds, stop, link counters).
     pub mega: MegaHandle,
+    /// The lidar's handle (what the X4 said of itself).
+    pub lidar: LidarHandle,
     /// Telemetry since the window began.
     pub mega_window: MegaWindow,
     /// The Mega link's counters when the window's first batch came.
@@ -61,6 +63,7 @@ impl<'a> Session<'a> {
         interrupt: &'a Shared,
         search: BeaconSearch,
         mega: MegaHandle,
+        lidar: LidarHandle,
     ) -> Self {
         Self {
             clock,
@@ -69,6 +72,7 @@ impl<'a> Session<'a> {
             search,
             telemetry_seen: false,
             mega,
+            lidar,
             mega_window: MegaWindow::default(),
             mega_stats_start: None,
             lidar_window: LidarWindow::default(),
