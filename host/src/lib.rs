@@ -7,5 +7,6 @@
 pub mod apps;
 pub mod devices;
 pub mod plot;
+pub mod pty;
 pub mod recording;
 pub mod referee;

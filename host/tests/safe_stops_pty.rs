@@ -61,19 +61,8 @@ impl MegaTap {
     /// A pseudo-terminal at `link` for the robot, forwarding to the world's Mega at `world`
     /// (opened when the robot opens the tap, as the world powers up when its port opens).
     fn start(link: &Path, world: &Path) -> Self {
-        let pair = nix::pty::openpty(None, None).expect("openpty");
-        let slave = nix::unistd::ttyname(pair.slave.as_fd()).expect("ttyname");
-        let mut modes = nix::sys::termios::tcgetattr(pair.slave.as_fd()).expect("tcgetattr");
-        nix::sys::termios::cfmakeraw(&mut modes);
-        nix::sys::termios::tcsetattr(
-            pair.slave.as_fd(),
-            nix::sys::termios::SetArg::TCSANOW,
-            &modes,
-        )
-        .expect("tcsetattr");
-        drop(pair.slave);
+        let (master, slave) = ratf_host::pty::open_raw().expect("a pseudo-terminal");
         std::os::unix::fs::symlink(slave, link).expect("symlink");
-        let master = File::from(pair.master);
         let batches = Arc::new(Mutex::new(Vec::new()));
         let quit = Arc::new(AtomicBool::new(false));
         let thread = {

@@ -17,11 +17,9 @@
 use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
 use std::net::SocketAddr;
-use std::os::fd::{AsFd, OwnedFd};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use nix::poll::{PollFd, PollFlags, PollTimeout};
 use ratf_core::config::Config;
 use ratf_core::drivers::x4::{Command, CommandDecoder, Received};
 use ratf_core::field::{Field, PartColor};
@@ -141,40 +139,18 @@ struct Pty {
 
 impl Pty {
     fn open(name: &str) -> Result<Self, ServeError> {
-        let pty = |what: &str, source| ServeError::Pty {
-            what: format!("{name}: {what}"),
-            source,
+        let problem = |e: crate::pty::PtyError| ServeError::Pty {
+            what: format!("{name}: {}", e.what),
+            source: e.source,
         };
-        let pair = nix::pty::openpty(None, None).map_err(|e| pty("openpty", e))?;
-        let slave_path = nix::unistd::ttyname(pair.slave.as_fd()).map_err(|e| pty("ttyname", e))?;
-        // Raw from the start (no echo, no line editing) until the robot sets its own modes.
-        let mut modes =
-            nix::sys::termios::tcgetattr(pair.slave.as_fd()).map_err(|e| pty("tcgetattr", e))?;
-        nix::sys::termios::cfmakeraw(&mut modes);
-        nix::sys::termios::tcsetattr(
-            pair.slave.as_fd(),
-            nix::sys::termios::SetArg::TCSANOW,
-            &modes,
-        )
-        .map_err(|e| pty("tcsetattr", e))?;
-        set_nonblocking(&pair.master).map_err(|e| pty("non-blocking", e))?;
-        // Our slave end closes here: the master then sees a hang-up until the robot opens it.
-        drop(pair.slave);
-        Ok(Self {
-            master: File::from(pair.master),
-            slave_path,
-        })
+        let (master, slave_path) = crate::pty::open_raw().map_err(problem)?;
+        crate::pty::set_nonblocking(&master).map_err(problem)?;
+        Ok(Self { master, slave_path })
     }
 
     /// True while some process has the slave end open.
     fn connected(&self) -> bool {
-        let mut fds = [PollFd::new(self.master.as_fd(), PollFlags::POLLIN)];
-        match nix::poll::poll(&mut fds, PollTimeout::ZERO) {
-            Ok(_) => !fds[0]
-                .revents()
-                .is_some_and(|r| r.contains(PollFlags::POLLHUP)),
-            Err(_) => false,
-        }
+        crate::pty::slave_open(&self.master)
     }
 
     /// Everything the robot wrote since the last call.
@@ -205,13 +181,6 @@ impl Pty {
             }
         }
     }
-}
-
-fn set_nonblocking(fd: &OwnedFd) -> nix::Result<()> {
-    use nix::fcntl::{FcntlArg, OFlag, fcntl};
-    let flags = OFlag::from_bits_truncate(fcntl(fd, FcntlArg::F_GETFL)?);
-    fcntl(fd, FcntlArg::F_SETFL(flags | OFlag::O_NONBLOCK))?;
-    Ok(())
 }
 
 fn symlink(target: &Path, link: &Path) -> Result<(), ServeError> {

@@ -63,40 +63,18 @@ impl Pty {
     /// is closed), the link moved to it at once (rename, so the path never dangles).
     pub(crate) fn replug(&mut self) {
         self.master = None;
-        let pair = nix::pty::openpty(None, None).expect("openpty");
-        let slave = nix::unistd::ttyname(pair.slave.as_fd()).expect("ttyname");
-        let mut modes = nix::sys::termios::tcgetattr(pair.slave.as_fd()).expect("tcgetattr");
-        nix::sys::termios::cfmakeraw(&mut modes);
-        nix::sys::termios::tcsetattr(
-            pair.slave.as_fd(),
-            nix::sys::termios::SetArg::TCSANOW,
-            &modes,
-        )
-        .expect("tcsetattr");
-        let flags = nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_GETFL).expect("flags");
-        let flags = nix::fcntl::OFlag::from_bits_truncate(flags) | nix::fcntl::OFlag::O_NONBLOCK;
-        nix::fcntl::fcntl(&pair.master, nix::fcntl::FcntlArg::F_SETFL(flags)).expect("O_NONBLOCK");
-        // Our slave end closes here: the master sees a hang-up until the device thread opens it.
-        drop(pair.slave);
+        let (master, slave) = crate::pty::open_raw().expect("a pseudo-terminal");
+        crate::pty::set_nonblocking(&master).expect("O_NONBLOCK");
         let staged = self.link.with_extension("new");
         let _ = std::fs::remove_file(&staged);
         std::os::unix::fs::symlink(&slave, &staged).expect("symlink");
         std::fs::rename(&staged, &self.link).expect("rename the symlink");
-        self.master = Some(File::from(pair.master));
+        self.master = Some(master);
     }
 
     /// True while the device thread has the slave end open.
     pub(crate) fn connected(&self) -> bool {
-        let Some(master) = &self.master else {
-            return false;
-        };
-        let mut fds = [PollFd::new(master.as_fd(), PollFlags::POLLIN)];
-        match nix::poll::poll(&mut fds, PollTimeout::ZERO) {
-            Ok(_) => !fds[0]
-                .revents()
-                .is_some_and(|r| r.contains(PollFlags::POLLHUP)),
-            Err(_) => false,
-        }
+        self.master.as_ref().is_some_and(crate::pty::slave_open)
     }
 
     /// Whatever the device thread wrote, waiting at most until `until` for the first byte
