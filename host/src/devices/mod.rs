@@ -12,6 +12,7 @@
 //!   replies only from the configured address).
 //! - [`imu`]: the MPU9255 over I2C, optional, behind [`imu::ImuSource`] so tests can run
 //!   without a bus.
+//! - [`operator`]: commands from the HMI or the ROS 2 bridge joined into any device set.
 //! - [`open_loop`]: the Mega's open-loop hold (`K` PWM and the magnet resent every tick),
 //!   for `ratf check`.
 //!
@@ -24,6 +25,7 @@ pub mod imu;
 pub mod lidar;
 pub mod mega;
 pub mod open_loop;
+pub mod operator;
 pub mod referee;
 
 #[cfg(test)]
