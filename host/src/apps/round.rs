@@ -31,6 +31,7 @@ use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
+use ratf_core::planning::bound::{BoundError, RoundBound};
 use ratf_core::planning::tasks::{Rules, TaskError};
 use ratf_core::runtime::{
     Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
@@ -150,6 +151,9 @@ pub enum RoundError {
     /// The calibration before a calibrated round failed.
     #[error(transparent)]
     Calibration(#[from] CalibrateError),
+    /// The lower bound of a round could not be computed.
+    #[error("lower bound: {0}")]
+    Bound(#[from] BoundError),
 }
 
 /// How a round is run.
@@ -566,6 +570,12 @@ pub struct BenchRow {
     pub timeouts: u32,
     /// Runs.
     pub runs: u32,
+    /// The lower bound on this round's time for each seed's colour arrangement
+    /// ([`RoundBound`]), mean over the seeds, s.
+    pub bound_s: f64,
+    /// Time over bound, mean over the full-score runs (each against its own arrangement's
+    /// bound).
+    pub time_over_bound: f64,
 }
 
 /// What a rounds benchmark tells as it goes.
@@ -603,8 +613,13 @@ pub fn bench(
         }
         beliefs.insert(seed, believed);
     }
+    let bound = RoundBound::new(config, &Field::competition())?;
     let mut rows = Vec::new();
     for round in 1..=3 {
+        let mut bounds = std::collections::BTreeMap::new();
+        for seed in seeds.clone() {
+            bounds.insert(seed, bound.seconds(round, round_parts(round, seed)?)?);
+        }
         for policy in Policy::ALL {
             let mut row = BenchRow {
                 round,
@@ -615,6 +630,8 @@ pub fn bench(
                 collisions: 0,
                 timeouts: 0,
                 runs: 0,
+                bound_s: bounds.values().sum::<f64>() / bounds.len().max(1) as f64,
+                time_over_bound: 0.0,
             };
             let mut full = 0u32;
             for seed in seeds.clone() {
@@ -630,11 +647,13 @@ pub fn bench(
                 if report.points == full_score(round) && report.outgoing == 4 {
                     full += 1;
                     row.mean_time_s += report.time_s;
+                    row.time_over_bound += report.time_s / bounds[&seed];
                     row.max_time_s = row.max_time_s.max(report.time_s);
                 }
             }
             row.full_score_rate = f64::from(full) / f64::from(row.runs.max(1));
             row.mean_time_s /= f64::from(full.max(1));
+            row.time_over_bound /= f64::from(full.max(1));
             rows.push(row);
         }
     }
@@ -715,6 +734,38 @@ mod tests {
                 assert!(report.time_s > 0.0);
             }
         }
+    }
+
+    #[test]
+    fn the_bench_sets_each_round_against_its_lower_bound() {
+        let config = Config::default();
+        let mut reports = Vec::new();
+        let rows = bench(&config, 1..=1, 0.0, false, |progress| {
+            if let BenchProgress::Run(report) = progress {
+                reports.push(report.clone());
+            }
+        })
+        .unwrap();
+        let bound = RoundBound::new(&config, &Field::competition()).unwrap();
+        for row in &rows {
+            let expected = bound
+                .seconds(row.round, round_parts(row.round, 1).unwrap())
+                .unwrap();
+            assert_eq!(row.bound_s, expected, "{row:?}");
+            let report = reports
+                .iter()
+                .find(|r| r.round == row.round && r.policy == row.policy)
+                .unwrap();
+            assert_eq!(row.full_score_rate, 1.0, "{report:?}");
+            // No run beats the bound, and the ratio is the run's own.
+            assert!(report.time_s > row.bound_s, "{report:?} against {row:?}");
+            assert!((row.time_over_bound - report.time_s / row.bound_s).abs() < 1e-12);
+        }
+        let json = serde_json::to_value(&rows).unwrap();
+        assert!(
+            json[0]["bound_s"].as_f64().is_some_and(|b| b > 20.0),
+            "{json}"
+        );
     }
 
     #[test]
