@@ -14,7 +14,7 @@
 //!   rules let a team place the robot anywhere in it; the area is approximate).
 //! - **Paths:** the shortest path of the robot's centre around the walls and dividers grown
 //!   by half the body width (a disc inside the square body: a relaxation), not the waypoint
-//!   graph ([`free_space`]); parts standing on the floor are ignored.
+//!   graph ([`disc_paths`]); parts standing on the floor are ignored.
 //! - **Motion:** the wheel-speed limit in the robot frame, `|vx| + |vy| + k·|ω| ≤ v_max` with
 //!   `k = lx + ly` and `v_max` the rim speed at `robot.max_wheel_speed_rad_s`, relaxed to
 //!   `|v| + k·|ω| ≤ v_max`, whose left side is the fastest wheel's rim speed. Over a leg of
@@ -25,7 +25,7 @@
 //!   (`mission.grip_settle_s`, `mission.release_settle_s`), except the last release, which
 //!   the clock does not wait for.
 
-pub mod free_space;
+pub mod disc_paths;
 pub mod search;
 
 use crate::config::Config;
@@ -34,7 +34,7 @@ use crate::field::{Field, MachineKind, PartColor, Slot};
 use crate::planning::tasks::model::Rules;
 use crate::referee::protocol::SlotLetters;
 
-use self::free_space::FreeSpace;
+use self::disc_paths::DiscPaths;
 use self::search::{Places, Station, search};
 
 /// The motion limits the bound keeps (module documentation).
@@ -137,7 +137,7 @@ impl RoundBound {
             }
         }
         let obstacles: Vec<_> = field.obstacles().iter().map(|o| o.rect).collect();
-        let space = FreeSpace::around(&obstacles, radius_m);
+        let space = DiscPaths::around(&obstacles, radius_m);
         for (station, pose) in &stations[1..] {
             if !space.is_clear(pose.position()) {
                 return Err(BoundError::Unreachable(station.to_string()));

@@ -18,12 +18,12 @@ pub const ARC_SEGMENTS: usize = 8;
 
 /// Free space for a disc of a given radius among axis-aligned rectangles.
 #[derive(Clone, Debug)]
-pub struct FreeSpace {
+pub struct DiscPaths {
     /// The grown obstacles, each convex and counter-clockwise.
     polygons: Vec<Vec<Vec2>>,
 }
 
-impl FreeSpace {
+impl DiscPaths {
     /// Free space for a disc of `radius_m` among `obstacles`.
     pub fn around(obstacles: &[Rect], radius_m: f64) -> Self {
         Self {
@@ -95,7 +95,7 @@ impl FreeSpace {
 /// A visibility graph: the first nodes are the points it was built for.
 #[derive(Clone, Debug)]
 pub struct VisibilityGraph<'a> {
-    space: &'a FreeSpace,
+    space: &'a DiscPaths,
     nodes: Vec<Vec2>,
     edges: Vec<Vec<(usize, f64)>>,
     points: usize,
@@ -252,14 +252,14 @@ mod tests {
 
     #[test]
     fn an_open_floor_gives_straight_lines() {
-        let space = FreeSpace::around(&[], 0.15);
+        let space = DiscPaths::around(&[], 0.15);
         let d = space.distances(&[Vec2::new(0.0, 0.0), Vec2::new(3.0, 4.0)]);
         assert_eq!(d, vec![0.0, 5.0, 5.0, 0.0]);
     }
 
     #[test]
     fn a_wall_is_passed_round_its_grown_end() {
-        let space = FreeSpace::around(&[wall()], 0.15);
+        let space = DiscPaths::around(&[wall()], 0.15);
         let (a, b) = (Vec2::new(0.0, -0.5), Vec2::new(0.0, 0.5));
         assert!(!space.is_visible(a, b));
         let d = space.distances(&[a, b])[1];
@@ -279,7 +279,7 @@ mod tests {
 
     #[test]
     fn a_region_is_left_from_its_nearest_clear_point() {
-        let space = FreeSpace::around(&[wall()], 0.15);
+        let space = DiscPaths::around(&[wall()], 0.15);
         let region = Rect::from_spans(-0.2, 0.2, -1.0, -0.8);
         let graph = space.graph(&[Vec2::new(0.0, -0.5), Vec2::new(0.0, 0.5)]);
         let lengths = graph.from_region(region);
@@ -324,7 +324,7 @@ mod tests {
         fn lengths_are_metric(
             ax in -1.5..1.5f64, ay in -1.5..1.5f64, bx in -1.5..1.5f64, by in -1.5..1.5f64,
         ) {
-            let space = FreeSpace::around(&[wall()], 0.15);
+            let space = DiscPaths::around(&[wall()], 0.15);
             let points = [Vec2::new(ax, ay), Vec2::new(bx, by), Vec2::new(1.0, 1.0)];
             prop_assume!(points.iter().all(|p| space.is_clear(*p)));
             let d = space.distances(&points);
