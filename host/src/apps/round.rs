@@ -23,6 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::time_split::{TimeSplit, TimeSplitTap};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -125,6 +126,8 @@ pub struct RoundReport {
     /// Inputs the core consumed.
     #[serde(skip)]
     pub inputs: u64,
+    /// Where the time from the part list to the last placement went.
+    pub time_split: TimeSplit,
 }
 
 /// Why a round could not run.
@@ -416,7 +419,13 @@ pub fn run_in_world(
     let mut last_batches = 0;
     let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
     let mut finished_at_us: Option<u64> = None;
-    let summary = run(&mut core, &mut devices, taps, |core, devices| {
+    let mut time_split = TimeSplitTap::new(&robot_config);
+    let mut all_taps: Vec<&mut dyn Tap> = Vec::with_capacity(taps.len() + 1);
+    for tap in taps.iter_mut() {
+        all_taps.push(&mut **tap);
+    }
+    all_taps.push(&mut time_split);
+    let summary = run(&mut core, &mut devices, &mut all_taps, |core, devices| {
         for event in devices.events.drain(..) {
             on_event(&event);
         }
@@ -487,6 +496,13 @@ pub fn run_in_world(
         })
         .collect();
     let started_s = core.brain().started_at_us().map(|us| us as f64 * 1e-6);
+    drop(all_taps);
+    let time_split = core
+        .brain()
+        .started_at_us()
+        .map_or_else(TimeSplit::default, |from| {
+            time_split.split(from, devices.last_point_us)
+        });
     Ok(RoundReport {
         final_parts,
         round,
@@ -504,6 +520,7 @@ pub fn run_in_world(
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
+        time_split,
     })
 }
 
@@ -576,6 +593,8 @@ pub struct BenchRow {
     /// Time over bound, mean over the full-score runs (each against its own arrangement's
     /// bound).
     pub time_over_bound: f64,
+    /// Where the time went, mean over the full-score runs.
+    pub time_split: TimeSplit,
 }
 
 /// What a rounds benchmark tells as it goes.
@@ -632,6 +651,7 @@ pub fn bench(
                 runs: 0,
                 bound_s: bounds.values().sum::<f64>() / bounds.len().max(1) as f64,
                 time_over_bound: 0.0,
+                time_split: TimeSplit::default(),
             };
             let mut full = 0u32;
             for seed in seeds.clone() {
@@ -648,12 +668,14 @@ pub fn bench(
                     full += 1;
                     row.mean_time_s += report.time_s;
                     row.time_over_bound += report.time_s / bounds[&seed];
+                    row.time_split += report.time_split;
                     row.max_time_s = row.max_time_s.max(report.time_s);
                 }
             }
             row.full_score_rate = f64::from(full) / f64::from(row.runs.max(1));
             row.mean_time_s /= f64::from(full.max(1));
             row.time_over_bound /= f64::from(full.max(1));
+            row.time_split = row.time_split.scaled(1.0 / f64::from(full.max(1)));
             rows.push(row);
         }
     }
@@ -737,7 +759,7 @@ mod tests {
     }
 
     #[test]
-    fn the_bench_sets_each_round_against_its_lower_bound() {
+    fn the_bench_sets_each_round_against_its_lower_bound_and_splits_its_time() {
         let config = Config::default();
         let mut reports = Vec::new();
         let rows = bench(&config, 1..=1, 0.0, false, |progress| {
@@ -760,6 +782,10 @@ mod tests {
             // No run beats the bound, and the ratio is the run's own.
             assert!(report.time_s > row.bound_s, "{report:?} against {row:?}");
             assert!((row.time_over_bound - report.time_s / row.bound_s).abs() < 1e-12);
+            // The time split covers the round but the moment before its first tick (≤ 20 ms).
+            let split = report.time_split.total_s();
+            assert!(split <= report.time_s && split >= report.time_s - 0.020 - 1e-9, "{report:?}");
+            assert!(report.time_split.settling_s > 0.0 && report.time_split.driving_s > 0.0);
         }
         let json = serde_json::to_value(&rows).unwrap();
         assert!(

@@ -1138,6 +1138,24 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
             r.runs
         );
     }
+    println!("where the time goes, mean s over the full-score runs (ratf_host::apps::time_split):");
+    println!(
+        "{:<6} {:<9} {:>8} {:>8} {:>8} {:>9} {:>8}",
+        "round", "policy", "driving", "turning", "docking", "settling", "waiting"
+    );
+    for r in &rows {
+        let t = &r.time_split;
+        println!(
+            "{:<6} {:<9} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>8.1}",
+            r.round,
+            r.policy.name(),
+            t.driving_s,
+            t.turning_s,
+            t.docking_s,
+            t.settling_s,
+            t.waiting_s
+        );
+    }
     println!(
         "times: from the part list to the last placement, over the full-score runs; machine \
          delay {} s; bound: the least time physics and the rules allow each seed's arrangement \
