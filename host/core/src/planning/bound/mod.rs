@@ -14,7 +14,7 @@
 //!   rules let a team place the robot anywhere in it; the area is approximate).
 //! - **Paths:** the shortest path of the robot's centre around the walls and dividers grown
 //!   by half the body width (a disc inside the square body: a relaxation), not the waypoint
-//!   graph ([`disc_paths`]); parts standing on the floor are ignored.
+//!   graph ([`crate::planning::disc_paths`]); parts standing on the floor are ignored.
 //! - **Motion:** the wheel-speed limit in the robot frame, `|vx| + |vy| + k·|ω| ≤ v_max` with
 //!   `k = lx + ly` and `v_max` the rim speed at `robot.max_wheel_speed_rad_s`, relaxed to
 //!   `|v| + k·|ω| ≤ v_max`, whose left side is the fastest wheel's rim speed. Over a leg of
@@ -25,7 +25,6 @@
 //!   (`mission.grip_settle_s`, `mission.release_settle_s`), except the last release, which
 //!   the clock does not wait for.
 
-pub mod disc_paths;
 pub mod search;
 
 use crate::config::Config;
@@ -34,8 +33,8 @@ use crate::field::{Field, MachineKind, PartColor, Slot};
 use crate::planning::tasks::model::Rules;
 use crate::referee::protocol::SlotLetters;
 
-use self::disc_paths::DiscPaths;
 use self::search::{Places, Station, search};
+use crate::planning::disc_paths::DiscPaths;
 
 /// The motion limits the bound keeps (module documentation).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,12 +1,16 @@
-//! Shortest paths for a disc among the field's walls and dividers: the robot's centre
-//! around each obstacle grown by the disc's radius, on a visibility graph.
+//! Shortest paths for a disc among rectangles (walls, dividers, parts, poles): the disc's
+//! centre around each obstacle grown by the disc's radius, on a visibility graph.
 //!
 //! The grown obstacle (a rectangle's Minkowski sum with the disc: a rounded rectangle) is
-//! replaced by the convex polygon inscribed in it (its rounded corners by chords whose ends
-//! lie on the arcs). The polygon lies inside the true grown obstacle, so every path the true
-//! obstacles allow the polygons allow too, and shortest lengths here are never longer than
-//! the true ones: what a lower bound needs. With [`ARC_SEGMENTS`] chords per corner of a
-//! 0.15 m disc a path bending round a corner is at most about a millimetre short.
+//! replaced by a convex polygon, in one of two ways ([`Fit`]):
+//! - **inscribed** (the rounded corners by chords whose ends lie on the arcs): the polygon
+//!   lies inside the true grown obstacle, so every path the true obstacles allow the
+//!   polygons allow too and lengths are never longer than the true ones, which is what a
+//!   lower bound needs ([`super::bound`]); with [`ARC_SEGMENTS`] chords per corner of a
+//!   0.15 m disc a path round a corner is at most about a millimetre short;
+//! - **circumscribed** (the corners by tangents): the polygon contains the grown obstacle,
+//!   so every path found keeps the whole disc off every obstacle, which is what a route
+//!   needs ([`crate::control::route`]).
 
 use std::collections::BinaryHeap;
 use std::f64::consts::FRAC_PI_2;
@@ -16,6 +20,15 @@ use crate::field::geometry::{Rect, Vec2};
 /// Chords per rounded corner.
 pub const ARC_SEGMENTS: usize = 8;
 
+/// How a grown obstacle's rounded corners become polygon edges (module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fit {
+    /// Chords inside the arcs: lengths never longer than the true ones.
+    Inscribed,
+    /// Tangents outside the arcs: paths never closer than the radius.
+    Circumscribed,
+}
+
 /// Free space for a disc of a given radius among axis-aligned rectangles.
 #[derive(Clone, Debug)]
 pub struct DiscPaths {
@@ -24,12 +37,19 @@ pub struct DiscPaths {
 }
 
 impl DiscPaths {
-    /// Free space for a disc of `radius_m` among `obstacles`.
+    /// Free space for a disc of `radius_m` among `obstacles`, for lower bounds (inscribed,
+    /// [`ARC_SEGMENTS`] per corner).
     pub fn around(obstacles: &[Rect], radius_m: f64) -> Self {
+        Self::fitted(obstacles, radius_m, Fit::Inscribed, ARC_SEGMENTS)
+    }
+
+    /// Free space for a disc of `radius_m` among `obstacles`, each corner fitted by
+    /// `segments` edges the `fit` way.
+    pub fn fitted(obstacles: &[Rect], radius_m: f64, fit: Fit, segments: usize) -> Self {
         Self {
             polygons: obstacles
                 .iter()
-                .map(|rect| inscribed_rounded_rect(*rect, radius_m))
+                .map(|rect| rounded_rect(*rect, radius_m, fit, segments.max(1)))
                 .collect(),
         }
     }
@@ -133,25 +153,80 @@ impl VisibilityGraph<'_> {
 
     /// Dijkstra from the initial lengths `start`, truncated to the points.
     fn shortest(&self, start: Vec<f64>) -> Vec<f64> {
-        let mut lengths = dijkstra(&self.edges, start);
+        let (mut lengths, _) = dijkstra(&self.edges, start);
         lengths.truncate(self.points);
         lengths
     }
+
+    /// The shortest path for the disc's centre from `a` to `b` (both ends included) through
+    /// the graph's nodes; `None` when `a` or `b` is not clear or no path exists. Build the
+    /// graph once without points ([`DiscPaths::graph`] of `&[]`) and ask for many paths.
+    pub fn path(&self, a: Vec2, b: Vec2) -> Option<Vec<Vec2>> {
+        if !self.space.is_clear(a) || !self.space.is_clear(b) {
+            return None;
+        }
+        if self.space.is_visible(a, b) {
+            return Some(vec![a, b]);
+        }
+        let seen_from = |end: Vec2| -> Vec<f64> {
+            self.nodes
+                .iter()
+                .map(|&node| {
+                    if self.space.is_visible(end, node) {
+                        end.distance(node)
+                    } else {
+                        f64::INFINITY
+                    }
+                })
+                .collect()
+        };
+        let (from_a, previous) = dijkstra(&self.edges, seen_from(a));
+        let to_b = seen_from(b);
+        let (last, _) = from_a
+            .iter()
+            .zip(&to_b)
+            .map(|(x, y)| x + y)
+            .enumerate()
+            .filter(|(_, total)| total.is_finite())
+            .min_by(|x, y| x.1.total_cmp(&y.1))?;
+        let mut reversed = vec![b, self.nodes[last]];
+        let mut node = last;
+        while previous[node] != usize::MAX {
+            node = previous[node];
+            reversed.push(self.nodes[node]);
+        }
+        reversed.push(a);
+        reversed.reverse();
+        Some(reversed)
+    }
 }
 
-/// The polygon inscribed in `rect` grown by `radius_m` (module documentation).
-fn inscribed_rounded_rect(rect: Rect, radius_m: f64) -> Vec<Vec2> {
+/// The polygon fitted to `rect` grown by `radius_m`, `segments` edges per corner, counter-
+/// clockwise (module documentation).
+fn rounded_rect(rect: Rect, radius_m: f64, fit: Fit, segments: usize) -> Vec<Vec2> {
     let corners = [
         (Vec2::new(rect.max.x, rect.min.y), -FRAC_PI_2),
         (Vec2::new(rect.max.x, rect.max.y), 0.0),
         (Vec2::new(rect.min.x, rect.max.y), FRAC_PI_2),
         (Vec2::new(rect.min.x, rect.min.y), 2.0 * FRAC_PI_2),
     ];
-    let mut polygon = Vec::with_capacity(4 * (ARC_SEGMENTS + 1));
+    let step = FRAC_PI_2 / segments as f64;
+    let mut polygon = Vec::with_capacity(4 * (segments + 2));
     for (corner, start_rad) in corners {
-        for k in 0..=ARC_SEGMENTS {
-            let angle = start_rad + FRAC_PI_2 * k as f64 / ARC_SEGMENTS as f64;
-            polygon.push(corner + Vec2::from_angle(angle) * radius_m);
+        let at = |angle: f64, radius: f64| corner + Vec2::from_angle(angle) * radius;
+        match fit {
+            Fit::Inscribed => {
+                polygon.extend((0..=segments).map(|k| at(start_rad + step * k as f64, radius_m)));
+            }
+            Fit::Circumscribed => {
+                // The tangents at the arc's ends and at every step meet half a step on, at
+                // radius r / cos(step / 2).
+                let outer = radius_m / (step / 2.0).cos();
+                polygon.push(at(start_rad, radius_m));
+                polygon
+                    .extend((0..segments).map(|k| at(start_rad + step * (k as f64 + 0.5), outer)));
+                polygon.push(at(start_rad + FRAC_PI_2, radius_m));
+            }
         }
     }
     polygon
@@ -204,8 +279,9 @@ fn edges(polygon: &[Vec2]) -> impl Iterator<Item = (Vec2, Vec2)> + '_ {
 }
 
 /// Shortest lengths over an undirected graph's adjacency lists from initial lengths
-/// `start` (zero at a single source, or a region's entry lengths).
-fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> Vec<f64> {
+/// `start` (zero at a single source, or a region's entry lengths), with each node's
+/// predecessor on its shortest path (`usize::MAX` for a start node or an unreached one).
+fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> (Vec<f64>, Vec<usize>) {
     #[derive(PartialEq)]
     struct Entry(f64, usize);
     impl Eq for Entry {}
@@ -225,6 +301,7 @@ fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> Vec<f64> {
         .filter(|(_, length)| length.is_finite())
         .map(|(node, length)| Entry(*length, node))
         .collect();
+    let mut previous = vec![usize::MAX; start.len()];
     let mut best = start;
     while let Some(Entry(length, node)) = queue.pop() {
         if length > best[node] {
@@ -234,11 +311,12 @@ fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> Vec<f64> {
             let candidate = length + step;
             if candidate < best[next] {
                 best[next] = candidate;
+                previous[next] = node;
                 queue.push(Entry(candidate, next));
             }
         }
     }
-    best
+    (best, previous)
 }
 
 #[cfg(test)]
@@ -290,8 +368,34 @@ mod tests {
     }
 
     #[test]
+    fn a_path_goes_round_and_keeps_the_disc_off_the_wall() {
+        let space = DiscPaths::fitted(&[wall()], 0.15, Fit::Circumscribed, 4);
+        let graph = space.graph(&[]);
+        let (a, b) = (Vec2::new(0.0, -0.5), Vec2::new(0.1, 0.5));
+        let path = graph.path(a, b).expect("a way round");
+        assert_eq!((path[0], path[path.len() - 1]), (a, b));
+        for pair in path.windows(2) {
+            assert!(space.is_visible(pair[0], pair[1]));
+            // Sampled, every point keeps at least the radius from the wall.
+            for k in 0..=20 {
+                let p = pair[0] + (pair[1] - pair[0]) * (k as f64 / 20.0);
+                let dx = (wall().min.x - p.x).max(p.x - wall().max.x).max(0.0);
+                let dy = (wall().min.y - p.y).max(p.y - wall().max.y).max(0.0);
+                assert!(dx.hypot(dy) >= 0.15 - 1e-9, "{p:?}");
+            }
+        }
+        let length: f64 = path.windows(2).map(|w| w[0].distance(w[1])).sum();
+        let exact = space.distances(&[a, b])[1];
+        assert!((length - exact).abs() < 1e-9, "{length} against {exact}");
+        assert!(
+            graph.path(a, Vec2::new(0.0, 0.0)).is_none(),
+            "inside the grown wall"
+        );
+    }
+
+    #[test]
     fn touching_a_grown_corner_does_not_block() {
-        let polygon = inscribed_rounded_rect(wall(), 0.15);
+        let polygon = rounded_rect(wall(), 0.15, Fit::Inscribed, ARC_SEGMENTS);
         let vertex = polygon[0];
         assert!(!crosses_interior(
             &polygon,
@@ -311,7 +415,7 @@ mod tests {
             r in 0.05..0.3f64,
         ) {
             let rect = Rect::from_spans(x, x + w, y, y + h);
-            for v in inscribed_rounded_rect(rect, r) {
+            for v in rounded_rect(rect, r, Fit::Inscribed, ARC_SEGMENTS) {
                 let dx = (rect.min.x - v.x).max(v.x - rect.max.x).max(0.0);
                 let dy = (rect.min.y - v.y).max(v.y - rect.max.y).max(0.0);
                 prop_assert!((dx.hypot(dy) - r).abs() < 1e-9);
