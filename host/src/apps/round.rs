@@ -784,7 +784,10 @@ mod tests {
             assert!((row.time_over_bound - report.time_s / row.bound_s).abs() < 1e-12);
             // The time split covers the round but the moment before its first tick (≤ 20 ms).
             let split = report.time_split.total_s();
-            assert!(split <= report.time_s && split >= report.time_s - 0.020 - 1e-9, "{report:?}");
+            assert!(
+                split <= report.time_s && split >= report.time_s - 0.020 - 1e-9,
+                "{report:?}"
+            );
             assert!(report.time_split.settling_s > 0.0 && report.time_split.driving_s > 0.0);
         }
         let json = serde_json::to_value(&rows).unwrap();

@@ -7,7 +7,7 @@
 //! - **Order:** exact over every legal sequence of picks and drops with one part carried,
 //!   every machine and row a colour may use ([`Rules`]: red to A, green to B, or to A as well
 //!   in rounds 1–2), every free outgoing slot, machines that turn a part at once (zero delay),
-//!   a row loaded again only once its output is empty ([`search`]).
+//!   a row loaded again only once its output is empty ([`mod@search`]).
 //! - **Poses:** the magnet on the front face touches each plate: the robot's centre half the
 //!   body length (`robot.footprint_length_m / 2`) in front of the plate face, facing it. The
 //!   run starts at rest with the centre anywhere in the start area and any heading (the

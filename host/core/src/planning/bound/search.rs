@@ -28,7 +28,7 @@ pub enum Station {
     Incoming(usize),
     /// Facing outgoing slot `i`.
     Outgoing(usize),
-    /// Facing machine row `r`'s input ([`ROWS`] order).
+    /// Facing machine row `r`'s input (0 = A upper, 1 = A lower, 2 = B upper, 3 = B lower).
     MachineInput(usize),
     /// Facing machine row `r`'s output.
     MachineOutput(usize),
