@@ -968,6 +968,7 @@ fn sim_round(
     let mut truth_path = Vec::new();
     let mut estimate_path = Vec::new();
     let mut collisions = Vec::new();
+    let mut handling = Vec::new();
     let started = Instant::now();
     let options = round::RoundOptions {
         machine_delay_s: args.machine_delay_s,
@@ -1039,6 +1040,17 @@ fn sim_round(
                 }
                 RoundEvent::Core { time, event } => {
                     let text = event.describe(&field);
+                    if let Some(&at) = truth_path.last() {
+                        match event {
+                            ratf_core::runtime::Event::Picked { color, .. } => {
+                                handling.push((at, true, *color))
+                            }
+                            ratf_core::runtime::Event::Placed { color, .. } => {
+                                handling.push((at, false, *color))
+                            }
+                            _ => {}
+                        }
+                    }
                     say(time.as_secs_f64(), &text);
                     serde_json::json!({
                         "type": "event",
@@ -1104,7 +1116,22 @@ fn sim_round(
     plot.path(&truth_path, "#1f4e9c", false, "ground truth");
     plot.path(&estimate_path, "#e07b00", true, "localiser estimate");
     for c in &collisions {
-        plot.mark(c.pose.position(), "#d01010", &format!("{:?}", c.with));
+        plot.collision(
+            c.pose.position(),
+            &format!("{:?} at {:.1} s", c.with, c.time_us as f64 * 1e-6),
+        );
+    }
+    for &(at, picked, color) in &handling {
+        let fill = match color {
+            Some(ratf_core::field::PartColor::Red) => "#d03030",
+            Some(ratf_core::field::PartColor::Green) => "#30a040",
+            Some(ratf_core::field::PartColor::Blue) => "#3060d0",
+            None => "#888888",
+        };
+        plot.pick_or_drop(at, picked, fill);
+    }
+    if !handling.is_empty() {
+        plot.legend_entry("#222222", "triangles: picks (up) and drops (down), in the part's colour");
     }
     for &(color, x, y) in &report.final_parts {
         let fill = match color {
