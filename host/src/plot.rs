@@ -86,7 +86,11 @@ impl FieldPlot {
                 plot.body,
                 r##"<circle cx="{x:.1}" cy="{y:.1}" r="{r:.1}" fill="#f2c14e" stroke="#9a7412"/>"##
             );
-            let dy = if beacon.circle.center.y > 0.0 { -0.04 } else { 0.04 };
+            let dy = if beacon.circle.center.y > 0.0 {
+                -0.04
+            } else {
+                0.04
+            };
             let at = beacon.circle.center + Vec2::new(0.0, -dy);
             plot.label(at, &format!("B{}", beacon.index), 11.0, "#9a7412");
         }
@@ -102,8 +106,14 @@ impl FieldPlot {
             plot.label(slot.box_rect().center(), &short, 9.0, "#777777");
         }
         let areas = [
-            (field.warehouse(WarehouseKind::Incoming).wall.rect, "incoming warehouse"),
-            (field.warehouse(WarehouseKind::Outgoing).wall.rect, "outgoing warehouse"),
+            (
+                field.warehouse(WarehouseKind::Incoming).wall.rect,
+                "incoming warehouse",
+            ),
+            (
+                field.warehouse(WarehouseKind::Outgoing).wall.rect,
+                "outgoing warehouse",
+            ),
             (field.machine_block(MachineKind::A).wall.rect, "machine A"),
             (field.machine_block(MachineKind::B).wall.rect, "machine B"),
         ];
@@ -116,7 +126,10 @@ impl FieldPlot {
             plot.label(Vec2::new(rect.center().x, y), name, 12.0, "#1f2a36");
         }
         plot.label(
-            Vec2::new(field.start_area().center().x, field.start_area().min.y + 0.02),
+            Vec2::new(
+                field.start_area().center().x,
+                field.start_area().min.y + 0.02,
+            ),
             "start",
             10.0,
             "#4a8a49",
@@ -366,7 +379,14 @@ mod tests {
         }
         plot.pick_or_drop(Vec2::ZERO, true, "#d03030");
         let svg = plot.finish("t");
-        for label in ["incoming warehouse", "machine B", ">I1<", ">O4<", ">B3<", "20 cm"] {
+        for label in [
+            "incoming warehouse",
+            "machine B",
+            ">I1<",
+            ">O4<",
+            ">B3<",
+            "20 cm",
+        ] {
             assert!(svg.contains(label), "{label}");
         }
         assert!(svg.contains("1: machine A wall (×2)"), "{svg}");

@@ -64,9 +64,17 @@ fn start(hub: Arc<Hub>) -> (HmiServer, Loop) {
 }
 
 /// One request; the status and the body.
-fn request(at: SocketAddr, method: &str, path: &str, token: Option<&str>, body: &str) -> (u16, String) {
+fn request(
+    at: SocketAddr,
+    method: &str,
+    path: &str,
+    token: Option<&str>,
+    body: &str,
+) -> (u16, String) {
     let mut stream = TcpStream::connect(at).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
     let auth = token.map_or_else(String::new, |t| format!("Authorization: Bearer {t}\r\n"));
     write!(
         stream,
@@ -164,12 +172,32 @@ fn bad_input_is_refused_with_a_message_and_nothing_reaches_the_loop() {
     let (server, mut receiver) = start(Hub::new());
     let at = server.address();
     for (path, body, status, says) in [
-        ("/api/force-start", r#"{"parts": "RGGY"}"#, 400, "four letters of R, G, B or X"),
-        ("/api/force-start", r#"{"parts": "RGB"}"#, 400, "four letters"),
+        (
+            "/api/force-start",
+            r#"{"parts": "RGGY"}"#,
+            400,
+            "four letters of R, G, B or X",
+        ),
+        (
+            "/api/force-start",
+            r#"{"parts": "RGB"}"#,
+            400,
+            "four letters",
+        ),
         ("/api/force-start", "{parts", 400, "not the JSON expected"),
         ("/api/force-start", "{}", 400, "missing field `parts`"),
-        ("/api/set-pose", r#"{"x": 2.5, "y": 0}"#, 400, "off the floor"),
-        ("/api/set-pose", r#"{"x": "left", "y": 0}"#, 400, "not the JSON expected"),
+        (
+            "/api/set-pose",
+            r#"{"x": 2.5, "y": 0}"#,
+            400,
+            "off the floor",
+        ),
+        (
+            "/api/set-pose",
+            r#"{"x": "left", "y": 0}"#,
+            400,
+            "not the JSON expected",
+        ),
         ("/api/round", r#"{"round": 2}"#, 409, "only the simulator"),
         ("/api/replay/seek", r#"{"t_s": 3}"#, 409, "only ratf replay"),
         ("/api/jump", "{}", 404, "no control named"),
@@ -257,7 +285,9 @@ fn the_stream_carries_snapshots_of_a_simulated_round_that_match_the_schema() {
     .unwrap();
 
     let mut stream = TcpStream::connect(server.address()).unwrap();
-    stream.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(30)))
+        .unwrap();
     write!(stream, "GET /api/stream HTTP/1.1\r\nHost: ratf\r\n\r\n").unwrap();
     let mut lines = BufReader::new(stream).lines();
     let status = lines.next().unwrap().unwrap();
@@ -274,8 +304,17 @@ fn the_stream_carries_snapshots_of_a_simulated_round_that_match_the_schema() {
     assert_eq!(snapshot["mode"], "sim");
     assert_eq!(snapshot["phase"], "running");
     assert_eq!(snapshot["covariance_m2"].as_array().unwrap().len(), 3);
-    assert_eq!(snapshot["wheels"]["reference_rad_s"].as_array().unwrap().len(), 4);
-    assert!(snapshot["scan"].as_array().unwrap().len() > 50, "a lidar revolution");
+    assert_eq!(
+        snapshot["wheels"]["reference_rad_s"]
+            .as_array()
+            .unwrap()
+            .len(),
+        4
+    );
+    assert!(
+        snapshot["scan"].as_array().unwrap().len() > 50,
+        "a lidar revolution"
+    );
     for point in snapshot["scan"].as_array().unwrap() {
         let xy = point.as_array().unwrap();
         assert!(xy.len() == 2 && xy.iter().all(|v| v.as_f64().unwrap().abs() < 3.0));
@@ -288,7 +327,10 @@ fn the_stream_carries_snapshots_of_a_simulated_round_that_match_the_schema() {
     // The same message as the one-shot state.
     let (status, state) = request(server.address(), "GET", "/api/state", None, "");
     assert_eq!(status, 200);
-    assert_eq!(serde_json::from_str::<Value>(&state).unwrap()["time_s"], snapshot["time_s"]);
+    assert_eq!(
+        serde_json::from_str::<Value>(&state).unwrap()["time_s"],
+        snapshot["time_s"]
+    );
     // The floor the page draws.
     let (_, floor) = request(server.address(), "GET", "/api/floor", None, "");
     let floor: Value = serde_json::from_str(&floor).unwrap();

@@ -71,7 +71,11 @@ fn serve_ratf(args: &[&str]) -> (Group, String) {
         // Keep reading to the end so `ratf` never finds its stdout closed.
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             if let Some(rest) = line.strip_prefix("HMI: ") {
-                let url = rest.split_whitespace().next().unwrap_or_default().to_owned();
+                let url = rest
+                    .split_whitespace()
+                    .next()
+                    .unwrap_or_default()
+                    .to_owned();
                 let _ = tx.send(url);
             }
         }
@@ -215,9 +219,23 @@ async fn a_simulated_round_is_watched_started_stopped_and_refused_without_the_to
         start["x"], start["y"]
     );
     wait_for(&client, &moved, "the robot moves 10 cm", 60).await;
+    // Mid-round for the screenshots: the first part on the magnet.
+    wait_for(
+        &client,
+        "window.ratf.last.carrying !== null",
+        "the first pick",
+        60,
+    )
+    .await;
     screenshot(&client, "hmi-laptop.png").await;
     client.set_window_size(390, 844).await.unwrap();
-    wait_for(&client, "document.documentElement.clientWidth <= 400", "phone width", 10).await;
+    wait_for(
+        &client,
+        "document.documentElement.clientWidth <= 400",
+        "phone width",
+        10,
+    )
+    .await;
     // One more snapshot drawn at the new size.
     let seen = wait_for(&client, "window.ratf.last.time_s", "a snapshot", 5).await;
     wait_for(

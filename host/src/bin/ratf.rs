@@ -1131,7 +1131,10 @@ fn sim_round(
         plot.pick_or_drop(at, picked, fill);
     }
     if !handling.is_empty() {
-        plot.legend_entry("#222222", "triangles: picks (up) and drops (down), in the part's colour");
+        plot.legend_entry(
+            "#222222",
+            "triangles: picks (up) and drops (down), in the part's colour",
+        );
     }
     for &(color, x, y) in &report.final_parts {
         let fill = match color {

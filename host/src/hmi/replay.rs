@@ -125,7 +125,8 @@ impl Player {
         let mut devices = Upto {
             recording: &self.recording,
             next: self.next,
-            until: Timestamp::from_us(t_us as u64),
+            // Whole µs, rounded: 2.985 s × 1e6 is 2 984 999.999… in binary floating point.
+            until: Timestamp::from_us(t_us.round() as u64),
             now: Timestamp::ZERO,
         };
         let Ok(_) = run(

@@ -5,7 +5,7 @@
   const $ = (id) => document.getElementById(id);
   const token = new URLSearchParams(location.search).get("token") || "";
   const COLORS = { R: "#d03030", G: "#30a040", B: "#3060d0", "?": "#888" };
-  const VIEW = { x0: -0.95, x1: 0.95, y0: -0.70, y1: 0.70 };
+  const VIEW = { x0: -0.95, x1: 0.95, y0: -0.75, y1: 0.75 };
   const state = { floor: null, info: null, last: null, picking: null, drag: null };
   window.ratf = state;
 
@@ -59,7 +59,7 @@
     ctx.fillStyle = "rgba(224,123,0,0.15)"; ctx.fill(); ctx.strokeStyle = "#e07b00"; ctx.lineWidth = 1.5; ctx.stroke();
   }
   function scaleBar() {
-    const [u, v] = px(VIEW.x0 + 0.04, VIEW.y0 + 0.035), len = 0.2 * scale;
+    const [u, v] = px(-0.70, VIEW.y0 + 0.04), len = 0.2 * scale;
     ctx.strokeStyle = "#222"; ctx.lineWidth = 3;
     ctx.beginPath(); ctx.moveTo(u, v); ctx.lineTo(u + len, v); ctx.moveTo(u, v - 5); ctx.lineTo(u, v + 5);
     ctx.moveTo(u + len / 2, v - 3); ctx.lineTo(u + len / 2, v + 3); ctx.moveTo(u + len, v - 5); ctx.lineTo(u + len, v + 5); ctx.stroke();
@@ -76,7 +76,9 @@
     for (const o of f.obstacles) rect(o, "#555", "#333");
     for (const s of f.slots) {
       rect(s.rect, null, "#aaa");
-      text(s.label, (s.rect[0] + s.rect[2]) / 2, (s.rect[1] + s.rect[3]) / 2, "#555", font() * 0.85);
+      // Machine slots are small: "in"/"out" there, the machine's name is beside the block.
+      const label = /^[AB]\d /.test(s.label) ? s.label.split(" ")[1] : s.label;
+      text(label, (s.rect[0] + s.rect[2]) / 2, (s.rect[1] + s.rect[3]) / 2, "#555", font() * 0.8);
     }
     for (const a of f.areas) {
       const below = a.rect[1] > 0 ? a.rect[3] + 0.035 : a.rect[1] - 0.035;
@@ -98,7 +100,8 @@
       const seen = s && s.beacons.seen[b.index];
       ctx.beginPath(); ctx.arc(u, v, Math.max(5, b.radius_m * scale), 0, 2 * Math.PI);
       ctx.fillStyle = "#f2c14e"; ctx.fill(); ctx.lineWidth = seen ? 4 : 1.5; ctx.strokeStyle = seen ? "#2f855a" : "#9a7412"; ctx.stroke();
-      text("B" + b.index, b.at[0], b.at[1] + (b.at[1] > 0 ? 0.05 : -0.05), "#9a7412", font() * 0.9);
+      const out = b.radius_m + 0.03;
+      text("B" + b.index, b.at[0], b.at[1] + (b.at[1] > 0 ? out : -out), "#9a7412", font() * 0.9);
     }
     scaleBar();
     if (!s) return;
