@@ -214,9 +214,12 @@ pub fn parse(command: &str, body: &[u8], field: &Field) -> Result<Control, Refus
     })
 }
 
+/// A round and seed chosen on the page, with the signal that one came.
+type Chosen = (Mutex<Option<(u8, u64)>>, Condvar);
+
 /// The simulator's round choice from the page: the server sets it, the simulator takes it.
 #[derive(Clone, Debug, Default)]
-pub struct RoundChoice(Arc<(Mutex<Option<(u8, u64)>>, Condvar)>);
+pub struct RoundChoice(Arc<Chosen>);
 
 impl RoundChoice {
     /// Ask for round `round` with `seed`.

@@ -28,7 +28,10 @@ const RATE_WINDOW_US: u64 = 500_000;
 /// Lines from outside the core for the timeline (the simulator's collisions and points),
 /// shared with whoever hears them.
 #[derive(Clone, Debug, Default)]
-pub struct Notes(Arc<Mutex<Vec<(EventLine, Option<u32>)>>>);
+pub struct Notes(Arc<Mutex<Vec<Note>>>);
+
+/// A timeline line, with the new points total when it scores.
+type Note = (EventLine, Option<u32>);
 
 impl Notes {
     /// Add a line; `points` is the new total when the line scores.
@@ -39,7 +42,7 @@ impl Notes {
             .push((line, points));
     }
 
-    fn drain(&self) -> Vec<(EventLine, Option<u32>)> {
+    fn drain(&self) -> Vec<Note> {
         std::mem::take(&mut *self.0.lock().unwrap_or_else(PoisonError::into_inner))
     }
 }
