@@ -27,7 +27,7 @@ const VIEW: Rect = Rect {
 /// Collisions within this distance of each other share one numbered mark, m.
 const COLLISION_CLUSTER_M: f64 = 0.05;
 /// Collision lines listed under the floor before "and N more".
-const COLLISION_LINES: usize = 4;
+const COLLISION_LINES: usize = 3;
 
 /// An SVG drawing of the field with things added on top.
 #[derive(Clone, Debug)]
@@ -86,12 +86,13 @@ impl FieldPlot {
                 plot.body,
                 r##"<circle cx="{x:.1}" cy="{y:.1}" r="{r:.1}" fill="#f2c14e" stroke="#9a7412"/>"##
             );
+            let out = beacon.circle.radius_m + 0.025;
             let dy = if beacon.circle.center.y > 0.0 {
-                -0.04
+                out
             } else {
-                0.04
+                -out
             };
-            let at = beacon.circle.center + Vec2::new(0.0, -dy);
+            let at = beacon.circle.center + Vec2::new(0.0, dy);
             plot.label(at, &format!("B{}", beacon.index), 11.0, "#9a7412");
         }
         for slot in field.slots() {
@@ -148,9 +149,9 @@ impl FieldPlot {
         );
     }
 
-    /// A 20 cm bar at the floor's lower left.
+    /// A 20 cm bar under the floor, left of centre.
     fn scale_bar(&mut self) {
-        let (x, y) = px(Vec2::new(-0.90, -0.685));
+        let (x, y) = px(Vec2::new(-0.60, -0.685));
         let length = 0.2 * PIXELS_PER_M;
         let _ = writeln!(
             self.body,
@@ -232,14 +233,12 @@ impl FieldPlot {
             lines.truncate(COLLISION_LINES);
             lines.push(format!("and {more} more"));
         }
+        // One column right of the scale bar, in the band under the floor.
         for (i, line) in lines.iter().enumerate() {
-            let column = (i % 2) as f64 * 470.0;
-            let row = (i / 2) as f64;
             let _ = writeln!(
                 self.body,
-                r##"<text x="{:.1}" y="{:.1}" font-size="11" fill="#d01010">{}</text>"##,
-                170.0 + column,
-                bottom - 26.0 + 13.0 * row,
+                r##"<text x="420.0" y="{:.1}" font-size="11" fill="#d01010">{}</text>"##,
+                bottom - 48.0 + 13.0 * i as f64,
                 escape(line)
             );
         }
