@@ -266,6 +266,36 @@ async fn a_simulated_round_is_watched_started_stopped_and_refused_without_the_to
     let phase = client.find(Locator::Id("phase")).await.unwrap();
     assert!(phase.text().await.unwrap().starts_with("STOPPED"));
 
+    // Set the pose by dragging on the map: press at (0.2, -0.1) m, drag towards +y.
+    client
+        .find(Locator::Id("set-pose"))
+        .await
+        .unwrap()
+        .click()
+        .await
+        .unwrap();
+    client
+        .execute(
+            "const c = document.getElementById('map'), r = c.getBoundingClientRect(); \
+             const at = (x, y) => ({ clientX: r.left + (x + 0.95) / 1.9 * r.width, \
+               clientY: r.top + (0.75 - y) / 1.5 * r.height, pointerId: 1, bubbles: true }); \
+             c.dispatchEvent(new PointerEvent('pointerdown', at(0.2, -0.1))); \
+             c.dispatchEvent(new PointerEvent('pointermove', at(0.2, 0.1))); \
+             c.dispatchEvent(new PointerEvent('pointerup', at(0.2, 0.1)));",
+            vec![],
+        )
+        .await
+        .unwrap();
+    let pose_set = wait_for(
+        &client,
+        "window.ratf.last.events.find(e => e.text.startsWith('pose set by the operator'))",
+        "a drag on the map sets the pose",
+        20,
+    )
+    .await;
+    let text = pose_set["text"].as_str().unwrap();
+    assert!(text.contains("(0.200, -0.100) m, 90.0°"), "{text}");
+
     // Without the token a control is refused, and the page says so.
     let base = url.split('?').next().unwrap().to_owned();
     client.goto(&base).await.unwrap();

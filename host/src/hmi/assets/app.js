@@ -238,7 +238,7 @@
     const r = canvas.getBoundingClientRect(), k = canvas.width / r.width;
     return { x: (ev.clientX - r.left) * k / scale + VIEW.x0, y: VIEW.y1 - (ev.clientY - r.top) * k / scale };
   };
-  canvas.addEventListener("pointerdown", (ev) => { if (!state.picking) return; const p = world(ev); state.drag = { x: p.x, y: p.y, yaw: 0 }; canvas.setPointerCapture(ev.pointerId); draw(); });
+  canvas.addEventListener("pointerdown", (ev) => { if (!state.picking) return; const p = world(ev); state.drag = { x: p.x, y: p.y, yaw: 0 }; try { canvas.setPointerCapture(ev.pointerId); } catch (e) { /* a pen or mouse without capture */ } draw(); });
   canvas.addEventListener("pointermove", (ev) => { if (!state.drag) return; const p = world(ev); if (Math.hypot(p.x - state.drag.x, p.y - state.drag.y) > 0.02) state.drag.yaw = Math.atan2(p.y - state.drag.y, p.x - state.drag.x); draw(); });
   canvas.addEventListener("pointerup", () => {
     if (!state.drag) return; const d = state.drag; state.drag = null; state.picking = false; canvas.classList.remove("picking");
