@@ -232,6 +232,8 @@ const SCHEMA: &[(&str, &str)] = &[
     ("/beacons/used", "number"),
     ("/beacons/seen", "array"),
     ("/parts", "array"),
+    ("/path", "array"),
+    ("/target/name", "string"),
     ("/magnet", "bool"),
     ("/switch_pressed", "bool"),
     ("/wheels/reference_rad_s", "array"),

@@ -174,6 +174,8 @@ pub struct Snapshot {
     pub beacons: BeaconsView,
     /// The slot the robot is heading for.
     pub target: Option<Target>,
+    /// The route it follows there, world points, m (empty when none).
+    pub path: Vec<[f64; 2]>,
     /// Parts where the robot's events put them.
     pub parts: Vec<PartView>,
     /// The part on the magnet.

@@ -114,9 +114,11 @@
     const dot = Math.max(2, canvas.width / 400);
     for (const [x, y] of s.scan) { const [u, v] = px(x, y); ctx.fillRect(u - dot / 2, v - dot / 2, dot, dot); }
     if (s.target) {
-      const [u0, v0] = px(s.pose.x, s.pose.y), [u1, v1] = px(s.target.at[0], s.target.at[1]);
-      ctx.strokeStyle = "#8a2be2"; ctx.lineWidth = 2; ctx.setLineDash([8, 5]);
-      ctx.beginPath(); ctx.moveTo(u0, v0); ctx.lineTo(u1, v1); ctx.stroke(); ctx.setLineDash([]);
+      const route = s.path.length >= 2 ? s.path : [[s.pose.x, s.pose.y], s.target.at];
+      ctx.strokeStyle = "#8a2be2"; ctx.lineWidth = 2.5; ctx.setLineDash([8, 5]); ctx.beginPath();
+      route.forEach(([x, y], i) => { const [u, v] = px(x, y); if (i) ctx.lineTo(u, v); else ctx.moveTo(u, v); });
+      ctx.stroke(); ctx.setLineDash([]);
+      const [u1, v1] = px(s.target.at[0], s.target.at[1]);
       ctx.beginPath(); ctx.arc(u1, v1, 9, 0, 2 * Math.PI); ctx.stroke();
     }
     if (s.truth) robotOutline(s.truth, "#1f4e9c", true, 0);
