@@ -266,7 +266,8 @@ async fn a_simulated_round_is_watched_started_stopped_and_refused_without_the_to
     let phase = client.find(Locator::Id("phase")).await.unwrap();
     assert!(phase.text().await.unwrap().starts_with("STOPPED"));
 
-    // Set the pose by dragging on the map: press at (0.2, -0.1) m, drag towards +y.
+    // Set the pose by dragging on the map: press at (0.2, -0.1) m, drag towards +y. The map
+    // draws 1.9 m across its width, at the same scale on both axes, from (-0.95, 0.75) m.
     client
         .find(Locator::Id("set-pose"))
         .await
@@ -278,7 +279,7 @@ async fn a_simulated_round_is_watched_started_stopped_and_refused_without_the_to
         .execute(
             "const c = document.getElementById('map'), r = c.getBoundingClientRect(); \
              const at = (x, y) => ({ clientX: r.left + (x + 0.95) / 1.9 * r.width, \
-               clientY: r.top + (0.75 - y) / 1.5 * r.height, pointerId: 1, bubbles: true }); \
+               clientY: r.top + (0.75 - y) / 1.9 * r.width, pointerId: 1, bubbles: true }); \
              c.dispatchEvent(new PointerEvent('pointerdown', at(0.2, -0.1))); \
              c.dispatchEvent(new PointerEvent('pointermove', at(0.2, 0.1))); \
              c.dispatchEvent(new PointerEvent('pointerup', at(0.2, 0.1)));",
