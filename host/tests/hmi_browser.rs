@@ -184,7 +184,7 @@ async fn a_simulated_round_is_watched_started_stopped_and_refused_without_the_to
     // The page loads and shows the simulator waiting for a part list (the server is silent).
     wait_for(&client, LOADED, "the page loads", 30).await;
     let mode = client.find(Locator::Id("mode")).await.unwrap();
-    assert_eq!(mode.text().await.unwrap(), "simulator");
+    assert_eq!(mode.text().await.unwrap(), "simulator · round 3 · seed 1");
     wait_for(
         &client,
         "window.ratf.last.phase === 'waiting_for_part_list' && window.ratf.last.time_s > 0.5",

@@ -893,8 +893,10 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         *slot
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(sender);
+        let mut tap = HmiTap::new(hub.clone(), "sim", &config);
+        tap.round = Some((round, seed));
         let hmi = SimHmi {
-            tap: HmiTap::new(hub.clone(), "sim", &config),
+            tap,
             operator,
             rounds: &rounds,
         };

@@ -146,6 +146,8 @@ pub struct ReplayView {
 pub struct Snapshot {
     /// `sim`, `robot` or `replay`.
     pub mode: &'static str,
+    /// The simulated round and seed (the simulator only).
+    pub round: Option<(u8, u64)>,
     /// Robot time of the last input, s.
     pub time_s: f64,
     /// Round clock: s since the part list, when it is known.

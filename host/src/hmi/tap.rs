@@ -73,6 +73,8 @@ pub struct HmiTap {
     path: Vec<[f64; 2]>,
     /// The replay player's state, shown with the snapshot.
     pub replay: Option<ReplayView>,
+    /// The simulated round and seed, shown with the snapshot.
+    pub round: Option<(u8, u64)>,
 }
 
 impl HmiTap {
@@ -102,6 +104,7 @@ impl HmiTap {
             planner: PathPlanner::new(config),
             path: Vec::new(),
             replay: None,
+            round: None,
         }
     }
 
@@ -215,6 +218,7 @@ impl HmiTap {
             .map_or([0.0; 4], |o| o.wheel_speeds_rad_s);
         Snapshot {
             mode: self.mode,
+            round: self.round,
             time_s: status.time.as_secs_f64(),
             clock_s: status
                 .started

@@ -153,6 +153,12 @@
     $("points").textContent = s.points === null ? "–" : s.points;
     $("points-box").hidden = s.points === null;
     $("time").textContent = fmt(s.time_s, 2) + " s";
+    if (s.round) {
+      $("mode").textContent = `simulator · round ${s.round[0]} · seed ${s.round[1]}`;
+      if (document.activeElement !== $("round") && document.activeElement !== $("seed") && state.shownRound !== s.round.join()) {
+        state.shownRound = s.round.join(); $("round").value = String(s.round[0]); $("seed").value = String(s.round[1]);
+      }
+    }
     $("legend-truth").hidden = !s.truth;
     $("pose").textContent = `estimate x ${fmt(s.pose.x, 3)} m, y ${fmt(s.pose.y, 3)} m, ${fmt(s.pose.yaw_rad * 180 / Math.PI, 1)}°` +
       (s.truth ? `; true x ${fmt(s.truth.x, 3)}, y ${fmt(s.truth.y, 3)}` : "");
