@@ -24,6 +24,8 @@ use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
 use crate::apps::time_split::{TimeSplit, TimeSplitTap};
+use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
+use crate::devices::realtime::Paced;
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -356,6 +358,18 @@ pub fn run_with_taps(
     run_in_world(config, config, options, taps, on_event)
 }
 
+/// What a round watched by a person adds (`ratf sim --hmi`): the operator's commands, wall
+/// clock pacing and a way to end the round early.
+#[derive(Default)]
+pub struct Live<'a> {
+    /// Commands from the HMI, joined into the world's inputs (so they are recorded).
+    pub operator: Option<OperatorReceiver>,
+    /// Robot seconds per wall second (`Some(1.0)`: real time); `None`: as fast as possible.
+    pub speed: Option<f64>,
+    /// Asked after every world step: true ends the round now (the operator chose another).
+    pub abort: Option<&'a dyn Fn() -> bool>,
+}
+
 /// Run a round in the world drawn for `world` (the configuration the team wrote, with the
 /// seed's errors) with a robot that believes `robot` (e.g. `world` after `ratf calibrate`:
 /// calibrating changes what the robot believes, not the hall).
@@ -364,6 +378,18 @@ pub fn run_in_world(
     robot: &Config,
     options: &RoundOptions,
     taps: &mut [&mut dyn Tap],
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    run_live(world, robot, options, taps, Live::default(), on_event)
+}
+
+/// [`run_in_world`] with a person watching: see [`Live`].
+pub fn run_live(
+    world: &Config,
+    robot: &Config,
+    options: &RoundOptions,
+    taps: &mut [&mut dyn Tap],
+    live: Live<'_>,
     mut on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
     let RoundOptions {
@@ -393,7 +419,7 @@ pub fn run_in_world(
         green_to_blue_at_a: settings.green_to_blue_at_a,
         ..Scenario::new(&config)
     };
-    let mut devices = RoundDevices {
+    let round_devices = RoundDevices {
         sim: SimDevices::new(&config, &scenario)?,
         link,
         server,
@@ -413,6 +439,10 @@ pub fn run_in_world(
         skipped: 0,
         events: Vec::new(),
     };
+    // Without an operator the channel's sender is dropped at once: nothing ever arrives.
+    let commands = live.operator.unwrap_or_else(|| operator_channel().1);
+    let mut devices = WithOperator::new(Paced::new(round_devices, live.speed), commands);
+    let abort = live.abort;
     let mut core = Core::new(&robot_config, scenario.start_pose)?;
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
@@ -426,6 +456,7 @@ pub fn run_in_world(
     }
     all_taps.push(&mut time_split);
     let summary = run(&mut core, &mut devices, &mut all_taps, |core, devices| {
+        let devices = devices.inner_mut().inner_mut();
         for event in devices.events.drain(..) {
             on_event(&event);
         }
@@ -458,12 +489,13 @@ pub fn run_in_world(
             finished_at_us.get_or_insert(now_us);
         }
         let settled = finished_at_us.is_some_and(|at| now_us >= at + SETTLE_AFTER_FINISH_US);
-        if settled || now_us >= limit_us {
+        if settled || now_us >= limit_us || abort.is_some_and(|abort| abort()) {
             Flow::Stop
         } else {
             Flow::Continue
         }
     })?;
+    let devices = devices.inner_mut().inner_mut();
     devices.settle_floor();
     for event in devices.events.drain(..) {
         on_event(&event);
@@ -532,6 +564,18 @@ pub fn run_recorded(
     path: &Path,
     on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
+    run_recorded_live(config, options, path, &mut [], Live::default(), on_event)
+}
+
+/// [`run_recorded`] with more taps (the HMI) and a person watching (see [`Live`]).
+pub fn run_recorded_live(
+    config: &Config,
+    options: &RoundOptions,
+    path: &Path,
+    taps: &mut [&mut dyn Tap],
+    live: Live<'_>,
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
     let applied = options.apply_to(config);
     let session = Session {
         kind: "sim".to_owned(),
@@ -545,7 +589,9 @@ pub fn run_recorded(
         version: env!("CARGO_PKG_VERSION").to_owned(),
     };
     let mut recorder = Recorder::create(path, &session).map_err(Box::new)?;
-    let report = run_with_taps(config, options, &mut [&mut recorder], on_event)?;
+    let mut all: Vec<&mut dyn Tap> = vec![&mut recorder];
+    all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
+    let report = run_live(config, config, options, &mut all, live, on_event)?;
     recorder.finish().map_err(Box::new)?;
     Ok(report)
 }

@@ -22,6 +22,7 @@ use ratf_core::runtime::{
 
 use crate::devices::lidar::{self, LidarHandle, LidarSettings};
 use crate::devices::mega::{self, MegaHandle, MegaSettings, open_port};
+use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
 use crate::devices::{Clock, DeviceError, LinkStates, RealDevices, Shared, Writers, imu, referee};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::RefereeLink;
@@ -431,13 +432,25 @@ pub fn run_robot(
     options: &RunOptions,
     shared: &Shared,
 ) -> Result<RunReport, RunError> {
+    run_robot_with(config, options, shared, None, &mut [])
+}
+
+/// [`run_robot`] with an operator's commands joined into the inputs (the HMI) and more
+/// taps (the HMI's).
+pub fn run_robot_with(
+    config: &Config,
+    options: &RunOptions,
+    shared: &Shared,
+    operator: Option<OperatorReceiver>,
+    taps: &mut [&mut dyn Tap],
+) -> Result<RunReport, RunError> {
     let initial = options
         .force_start
         .map(|parts| Input::Operator(OperatorCommand::ForceStart { parts }))
         .into_iter()
         .collect();
     let OpenDevices {
-        mut devices,
+        devices,
         running:
             Running {
                 guard,
@@ -470,18 +483,17 @@ pub fn run_robot(
         last_placed: None,
     };
     let cpu_start = cpu_time_s();
-    let result = run(
-        &mut core,
-        &mut devices,
-        &mut [&mut recorder, &mut status],
-        |core, _| {
-            if core.brain().phase() == Phase::Finished || shared.quitting() {
-                Flow::Stop
-            } else {
-                Flow::Continue
-            }
-        },
-    );
+    // Without an operator the channel's sender is dropped at once: nothing ever arrives.
+    let mut devices = WithOperator::new(devices, operator.unwrap_or_else(|| operator_channel().1));
+    let mut all: Vec<&mut dyn Tap> = vec![&mut recorder, &mut status];
+    all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
+    let result = run(&mut core, &mut devices, &mut all, |core, _| {
+        if core.brain().phase() == Phase::Finished || shared.quitting() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    });
     // Stop the robot first, then tidy up.
     let stop_written = guard.stop();
     if status.terminal && status.period.is_some() {
@@ -522,7 +534,7 @@ pub fn run_robot(
         inputs: result.map_or(0, |s| s.inputs),
         inputs_dropped: shared.inputs_dropped(),
         stop_written,
-        latency: Latency::of(devices.latencies_us()),
+        latency: Latency::of(devices.inner().latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),
