@@ -1,6 +1,8 @@
-//! The 50 kHz encoder ISR (TIMER1_COMPA, `__vector_17`) fits its budget: at most 100 cycles
-//! on its longest path, hardware entry and `reti` included (issue 3). The count is static
-//! (see `isr_cycles`), so it is deterministic and may be asserted exactly.
+//! The firmware's budgets: the 50 kHz encoder ISR (TIMER1_COMPA, `__vector_17`) fits 100
+//! cycles on its longest path, hardware entry and `reti` included (issue 3); interrupts are
+//! never off for long, which bounds how late an encoder sample can be (issue 16); flash and
+//! static RAM fit 32 KiB and 2 KiB. The counts are static (see `isr_cycles`), so they are
+//! deterministic and may be asserted exactly.
 
 use ratf_hil_tests::firmware::elf_path;
 use ratf_hil_tests::isr_cycles::{TIMER1_COMPA_VECTOR, disassemble, isr_bounds};
@@ -84,4 +86,18 @@ fn interrupts_are_never_off_for_long_so_a_sample_is_delayed_by_a_bounded_time() 
         worst.0,
         worst.1
     );
+}
+
+/// The firmware's memory budget (issue 16): 32 KiB of flash, 2 KiB of static RAM.
+#[test]
+fn flash_and_static_ram_fit_their_budget() {
+    use ratf_hil_tests::firmware::memory_use;
+    let elf = elf_path().unwrap_or_else(|e| panic!("{e}"));
+    let memory = memory_use(&elf).unwrap_or_else(|e| panic!("{e}"));
+    println!(
+        "flash {} B of 32768, static RAM {} B of 2048",
+        memory.flash_bytes, memory.ram_bytes
+    );
+    assert!(memory.flash_bytes <= 32 * 1024, "{memory:?}");
+    assert!(memory.ram_bytes <= 2 * 1024, "{memory:?}");
 }
