@@ -7,11 +7,12 @@
 
 use ratf_hil_tests::edge_load::{Phases, run_loaded_trial};
 
-/// Rates per encoder, edges/s, that must be lossless at every phase: the two.
-const RATES_HZ: [f64; 2] = [37_777.0, 41_111.0];
-/// Rates measured and printed, not asserted: the target (45 000), which this
-/// firmware does not reach, and one between.
-const MEASURED_RATES_HZ: [f64; 2] = [43_000.0, 45_000.0];
+/// Rates per encoder, edges/s, that must be lossless at every phase: the two and
+/// the highest this firmware holds.
+const RATES_HZ: [f64; 3] = [37_777.0, 41_111.0, 43_000.0];
+/// Rates measured and printed, not asserted: the target, which this firmware does
+/// not reach at every phase.
+const MEASURED_RATES_HZ: [f64; 1] = [45_000.0];
 /// Random phases per rate.
 const PHASES: usize = 20;
 /// Edges per encoder per trial: 67–79 ms of edges, four control periods.
@@ -20,7 +21,7 @@ const EDGES: u32 = 3_000;
 const SEED: u64 = 16_005;
 
 #[test]
-fn lossless_at_37_777_and_41_111_edges_per_second_under_full_host_traffic() {
+fn lossless_at_37_777_41_111_and_43_000_edges_per_second_under_full_host_traffic() {
     println!("seed {SEED}, {PHASES} phases per rate, {EDGES} edges per encoder per trial");
     let mut phases = Phases::new(SEED);
     let mut failures = Vec::new();

@@ -15,16 +15,40 @@
 use crate::board::LINK_UBRR;
 use crate::ring::Ring;
 use avr_device::atmega2560::USART0;
-use avr_device::interrupt::{self, Mutex};
-use core::cell::RefCell;
+use avr_device::interrupt::{self, CriticalSection};
+use core::cell::UnsafeCell;
 
 /// Receive ring capacity, bytes.
 pub const RX_CAPACITY: usize = 128;
 /// Transmit ring capacity, bytes: three telemetry batches.
 pub const TX_CAPACITY: usize = 256;
 
-static RX: Mutex<RefCell<Ring<RX_CAPACITY>>> = Mutex::new(RefCell::new(Ring::new()));
-static TX: Mutex<RefCell<Ring<TX_CAPACITY>>> = Mutex::new(RefCell::new(Ring::new()));
+static RX: CsCell<Ring<RX_CAPACITY>> = CsCell::new(Ring::new());
+static TX: CsCell<Ring<TX_CAPACITY>> = CsCell::new(Ring::new());
+
+/// A ring shared by an interrupt handler and the main loop, reached only inside critical
+/// sections. Unlike `Mutex<RefCell<_>>` it keeps no borrow flag: each access is a short
+/// closure that cannot reach the same cell again, so the flag's 16 or so cycles per access
+/// (with interrupts off, holding back the encoder interrupt) bought nothing.
+struct CsCell<T>(UnsafeCell<T>);
+
+// SAFETY: the value is reached only through `with`, which needs a critical section: on this
+// single-core MCU no other code runs meanwhile, so accesses never overlap.
+unsafe impl<T> Sync for CsCell<T> {}
+
+impl<T> CsCell<T> {
+    const fn new(value: T) -> Self {
+        Self(UnsafeCell::new(value))
+    }
+
+    /// Run `f` on the value. Every `f` in this module is a leaf (a ring push, pop or count)
+    /// that never calls `with` again, so the `&mut` is the only reference while it lives.
+    fn with<R>(&self, _cs: CriticalSection<'_>, f: impl FnOnce(&mut T) -> R) -> R {
+        // SAFETY: interrupts are off for the token's lifetime and `f` does not re-enter
+        // (above), so nothing else reads or writes the value during `f`.
+        f(unsafe { &mut *self.0.get() })
+    }
+}
 
 /// `UCSR0B` with the receiver, its interrupt and the transmitter on, and the data-register-
 /// empty interrupt off.
@@ -130,16 +154,16 @@ extern "C" fn rx_bytes() {
     interrupt::free(|cs| {
         if usart.ucsr0a().read().rxc0().bit_is_set() {
             let byte = usart.udr0().read().bits();
-            RX.borrow(cs).borrow_mut().push(byte);
+            RX.with(cs, |ring| ring.push(byte));
         }
-        usart.ucsr0b().modify(|_, w| w.rxcie0().set_bit());
     });
+    interrupt::free(|_| usart.ucsr0b().modify(|_, w| w.rxcie0().set_bit()));
 }
 
 /// The transmit interrupt's body: send the next queued byte and re-enable the interrupt, or
 /// leave it off when the ring is empty.
 extern "C" fn tx_next() {
-    if let Some(byte) = interrupt::free(|cs| TX.borrow(cs).borrow_mut().pop()) {
+    if let Some(byte) = interrupt::free(|cs| TX.with(cs, |ring| ring.pop())) {
         // SAFETY: UDR0 and UCSR0B are written here only with the interrupt off (the stub
         // cleared UDRIE0), and by the main loop only in critical sections, while it is
         // suspended under this handler.
@@ -183,7 +207,7 @@ impl Usart {
         // dozen cycles (the encoder interrupt must start within 320 cycles).
         let queued = bytes
             .iter()
-            .filter(|&&byte| interrupt::free(|cs| TX.borrow(cs).borrow_mut().push(byte)))
+            .filter(|&&byte| interrupt::free(|cs| TX.with(cs, |ring| ring.push(byte))))
             .count();
         interrupt::free(|_| {
             self.usart.ucsr0b().modify(|_, w| w.udrie0().set_bit());
@@ -195,7 +219,7 @@ impl Usart {
     pub fn read(&mut self, buffer: &mut [u8]) -> usize {
         let mut n = 0;
         while n < buffer.len() {
-            match interrupt::free(|cs| RX.borrow(cs).borrow_mut().pop()) {
+            match interrupt::free(|cs| RX.with(cs, |ring| ring.pop())) {
                 Some(byte) => {
                     buffer[n] = byte;
                     n += 1;
@@ -210,8 +234,8 @@ impl Usart {
     /// bytes to send that found the transmit ring full. Reported on telemetry channel `x`.
     pub fn bytes_dropped(&self) -> u16 {
         interrupt::free(|cs| {
-            let rx = RX.borrow(cs).borrow().dropped();
-            let tx = TX.borrow(cs).borrow().dropped();
+            let rx = RX.with(cs, |ring| ring.dropped());
+            let tx = TX.with(cs, |ring| ring.dropped());
             rx.wrapping_add(tx)
         })
     }
