@@ -47,6 +47,7 @@ fn main() -> ! {
     // The encoder pull-ups were enabled by Gpio::new, long enough ago to have settled.
     let mut encoders = Encoders::start(dp.TC1, dp.TC3, &dp.CPU, gpio.encoder_pins());
     hw::enable_interrupts();
+    usart.start_receiving();
     usart.write(mcu.boot().as_bytes());
 
     let mut rx = [0u8; RX_CHUNK];

@@ -77,6 +77,18 @@ pub enum AnalysisError {
         /// Its mnemonic.
         mnemonic: String,
     },
+    /// Every path from here calls a function that never returns (the panic handler, which
+    /// loops with interrupts off): not a path the bound has to cover.
+    Diverges {
+        /// The call.
+        address: u32,
+    },
+    /// A function returns with interrupts still off (its caller's code would have to be
+    /// walked too).
+    ReturnWithInterruptsOff {
+        /// Where.
+        address: u32,
+    },
     /// Control flow left the disassembled code.
     NoInstruction {
         /// The missing address.
@@ -100,6 +112,15 @@ impl fmt::Display for AnalysisError {
             Self::UnknownInstruction { address, mnemonic } => {
                 write!(f, "no cycle count for `{mnemonic}` at 0x{address:x}")
             }
+            Self::Diverges { address } => write!(
+                f,
+                "every path through 0x{address:x} calls a function that never returns"
+            ),
+            Self::ReturnWithInterruptsOff { address } => write!(
+                f,
+                "`ret` at 0x{address:x} with interrupts off: the critical section goes on in \
+                 the caller"
+            ),
             Self::NoInstruction { address } => {
                 write!(
                     f,
@@ -215,24 +236,53 @@ fn straight_cycles(mnemonic: &str) -> Option<u64> {
 
 const SKIPS: &[&str] = &["cpse", "sbrc", "sbrs", "sbic", "sbis"];
 
+/// Where a walk ends.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum End {
+    /// At `reti` (an interrupt handler).
+    Reti,
+    /// At `ret` (a called function).
+    Ret,
+    /// Where interrupts are enabled again: `sei`, a write of SREG (`out 0x3f`, which in a
+    /// critical section restores the saved I flag), or `reti`.
+    InterruptsOn,
+}
+
+/// The longest instruction, cycles: after `sei` (or an SREG write) the CPU executes one
+/// more instruction before a pending interrupt, and an interrupt waits for the current
+/// instruction to finish (`call`, `ret`, `reti`: 5 cycles with a 3-byte PC).
+pub const LONGEST_INSTRUCTION_CYCLES: u64 = 5;
+
 /// Walks the control-flow graph; memoises per (address, terminator).
 struct Walker<'a> {
     code: &'a BTreeMap<u32, Instruction>,
-    memo: HashMap<(u32, bool), CycleBounds>,
-    on_path: HashSet<(u32, bool)>,
+    memo: HashMap<(u32, End), CycleBounds>,
+    on_path: HashSet<(u32, End)>,
 }
 
 impl Walker<'_> {
+    fn new(code: &BTreeMap<u32, Instruction>) -> Walker<'_> {
+        Walker {
+            code,
+            memo: HashMap::new(),
+            on_path: HashSet::new(),
+        }
+    }
+
     /// Bounds from `address` to the terminator: `reti` when `in_isr`, else `ret`.
     fn bounds(&mut self, address: u32, in_isr: bool) -> Result<CycleBounds, AnalysisError> {
-        let key = (address, in_isr);
+        self.walk(address, if in_isr { End::Reti } else { End::Ret })
+    }
+
+    fn walk(&mut self, address: u32, end: End) -> Result<CycleBounds, AnalysisError> {
+        let key = (address, end);
         if let Some(b) = self.memo.get(&key) {
             return Ok(*b);
         }
         if !self.on_path.insert(key) {
             return Err(AnalysisError::Loop { address });
         }
-        let result = self.bounds_uncached(address, in_isr);
+        let result = self.bounds_uncached(address, end);
         self.on_path.remove(&key);
         let b = result?;
         self.memo.insert(key, b);
@@ -251,26 +301,39 @@ impl Walker<'_> {
         })
     }
 
-    fn bounds_uncached(
-        &mut self,
-        address: u32,
-        in_isr: bool,
-    ) -> Result<CycleBounds, AnalysisError> {
+    fn bounds_uncached(&mut self, address: u32, end: End) -> Result<CycleBounds, AnalysisError> {
         let insn = self.instruction(address)?.clone();
         let next = address + insn.size;
         let m = insn.mnemonic.as_str();
+        let enables = m == "sei" || (m == "out" && insn.operands.starts_with("0x3f"));
+        if end == End::InterruptsOn && enables {
+            let cycles = 1 + LONGEST_INSTRUCTION_CYCLES;
+            return Ok(CycleBounds {
+                min: cycles,
+                max: cycles,
+            });
+        }
+        let in_isr = end;
         match m {
+            "ret" if end == End::InterruptsOn => {
+                Err(AnalysisError::ReturnWithInterruptsOff { address })
+            }
             "reti" | "ret" => {
                 // A `ret` inside the ISR body or a `reti` in a callee would be a miscompile
                 // of what we analyse; both cost 5 cycles with a 3-byte PC.
                 Ok(CycleBounds { min: 5, max: 5 })
             }
-            "rjmp" => Ok(self.bounds(Self::target(&insn)?, in_isr)?.add(2)),
-            "jmp" => Ok(self.bounds(Self::target(&insn)?, in_isr)?.add(3)),
+            "rjmp" => Ok(self.walk(Self::target(&insn)?, in_isr)?.add(2)),
+            "jmp" => Ok(self.walk(Self::target(&insn)?, in_isr)?.add(3)),
             "rcall" | "call" => {
                 let call_cycles = if m == "rcall" { 4 } else { 5 };
-                let callee = self.bounds(Self::target(&insn)?, false)?;
-                let rest = self.bounds(next, in_isr)?;
+                let callee = match self.walk(Self::target(&insn)?, End::Ret) {
+                    Err(AnalysisError::Loop { .. } | AnalysisError::Diverges { .. }) => {
+                        return Err(AnalysisError::Diverges { address });
+                    }
+                    other => other?,
+                };
+                let rest = self.walk(next, in_isr)?;
                 Ok(CycleBounds {
                     min: call_cycles + callee.min + rest.min,
                     max: call_cycles + callee.max + rest.max,
@@ -278,17 +341,17 @@ impl Walker<'_> {
             }
             "ijmp" | "eijmp" | "icall" | "eicall" => Err(AnalysisError::Indirect { address }),
             _ if m.starts_with("br") => {
-                let fall = self.bounds(next, in_isr)?.add(1);
-                let taken = self.bounds(Self::target(&insn)?, in_isr)?.add(2);
-                Ok(fall.join(taken))
+                let fall = self.walk(next, in_isr).map(|b| b.add(1));
+                let taken = self.walk(Self::target(&insn)?, in_isr).map(|b| b.add(2));
+                join_live(fall, taken)
             }
             _ if SKIPS.contains(&m) => {
                 let skipped = self.instruction(next)?;
                 let skip_cycles = 1 + u64::from(skipped.size / 2);
                 let after = next + skipped.size;
-                let no_skip = self.bounds(next, in_isr)?.add(1);
-                let skip = self.bounds(after, in_isr)?.add(skip_cycles);
-                Ok(no_skip.join(skip))
+                let no_skip = self.walk(next, in_isr).map(|b| b.add(1));
+                let skip = self.walk(after, in_isr).map(|b| b.add(skip_cycles));
+                join_live(no_skip, skip)
             }
             _ => {
                 let cycles =
@@ -296,9 +359,23 @@ impl Walker<'_> {
                         address,
                         mnemonic: m.to_owned(),
                     })?;
-                Ok(self.bounds(next, in_isr)?.add(cycles))
+                Ok(self.walk(next, in_isr)?.add(cycles))
             }
         }
+    }
+}
+
+/// The bounds over two alternative paths, leaving out one that diverges (see
+/// [`AnalysisError::Diverges`]).
+fn join_live(
+    a: Result<CycleBounds, AnalysisError>,
+    b: Result<CycleBounds, AnalysisError>,
+) -> Result<CycleBounds, AnalysisError> {
+    match (a, b) {
+        (Ok(a), Ok(b)) => Ok(a.join(b)),
+        (Ok(live), Err(AnalysisError::Diverges { .. }))
+        | (Err(AnalysisError::Diverges { .. }), Ok(live)) => Ok(live),
+        (Err(e), _) | (_, Err(e)) => Err(e),
     }
 }
 
@@ -307,14 +384,41 @@ pub fn isr_bounds(
     code: &BTreeMap<u32, Instruction>,
     vector: u32,
 ) -> Result<CycleBounds, AnalysisError> {
-    let mut walker = Walker {
-        code,
-        memo: HashMap::new(),
-        on_path: HashSet::new(),
-    };
+    let mut walker = Walker::new(code);
     Ok(walker
         .bounds(vector_address(vector), true)?
         .add(HARDWARE_ENTRY_CYCLES))
+}
+
+/// Cycles interrupts stay off after entering interrupt vector `vector`, until the handler
+/// enables them (`sei`, an SREG write, or its `reti`) plus the one instruction the CPU runs
+/// before a pending interrupt: the hardware entry, the vector's `jmp` and the handler's
+/// prologue up to there.
+pub fn vector_interrupts_off(
+    code: &BTreeMap<u32, Instruction>,
+    vector: u32,
+) -> Result<CycleBounds, AnalysisError> {
+    Ok(Walker::new(code)
+        .walk(vector_address(vector), End::InterruptsOn)?
+        .add(HARDWARE_ENTRY_CYCLES))
+}
+
+/// Every `cli` in the code with the cycles from it until interrupts are enabled again (the
+/// `cli` itself and the instruction after the enabling one included), by address: the
+/// critical sections. A `cli` after which interrupts are never enabled again (the panic
+/// handler's) gives [`AnalysisError::Loop`].
+pub fn critical_sections(
+    code: &BTreeMap<u32, Instruction>,
+) -> BTreeMap<u32, Result<CycleBounds, AnalysisError>> {
+    let mut walker = Walker::new(code);
+    code.values()
+        .filter(|insn| insn.mnemonic == "cli")
+        .map(|insn| {
+            let after = insn.address + insn.size;
+            let bounds = walker.walk(after, End::InterruptsOn).map(|b| b.add(1));
+            (insn.address, bounds)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@
 //! - [`telemetry`]: the firmware's UART output as timestamped frames and batches.
 //! - [`host_link`]: command batches as the Pi encodes them.
 //! - [`encoder_lines`]: quadrature lines the tests drive onto `PINA`; [`edge_rate`]: edge-rate
-//!   trials and the search for the highest lossless rate.
+//!   trials and the search for the highest lossless rate; [`edge_load`]: the same under full
+//!   host traffic at random phases.
 //! - [`pca9685`] and [`shield`]: the motor shield's PWM chip on the TWI bus, decoded into
 //!   per-motor PWM and voltage.
 //! - [`isr_cycles`]: static cycle bounds of the encoder ISR from `avr-objdump -d`.
@@ -24,6 +25,7 @@
 #![forbid(unsafe_code)]
 
 pub mod closed_loop;
+pub mod edge_load;
 pub mod edge_rate;
 pub mod encoder_lines;
 pub mod firmware;

@@ -8,6 +8,7 @@ use ratf_protocol::channels::{Decoded, Decoder, Frame};
 use ratf_protocol::integrity::{Checksum, Crc16, MCU_CHECKSUM_CHANNEL};
 use ratf_protocol::mcu::TELEMETRY_FRAMES;
 use ratf_protocol::messages::{Faults, QuadratureErrors, Telemetry, WHEEL_COUNT};
+use ratf_protocol::settings::SettingsAck;
 
 /// One byte received from the firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,14 +58,14 @@ pub struct TimedBatch {
 }
 
 impl TimedBatch {
-    /// The channel letters in order, e.g. `b"ghijksqxz"`.
+    /// The channel letters in order, e.g. `b"ghijksqxyz"`.
     pub fn letters(&self) -> Vec<u8> {
         self.frames.iter().map(Frame::channel).collect()
     }
 
-    /// True when this is a complete telemetry batch `g h i j k s q x z`.
+    /// True when this is a complete telemetry batch `g h i j k s q x y z`.
     pub fn is_telemetry(&self) -> bool {
-        self.letters() == b"ghijksqxz"
+        self.letters() == b"ghijksqxyz"
     }
 }
 
@@ -99,10 +100,12 @@ pub struct TelemetryBatch {
     pub quadrature_errors: [u8; WHEEL_COUNT],
     /// Fault counters (`x`).
     pub faults: Faults,
+    /// The controller settings' acknowledgement (`y`).
+    pub settings_ack: SettingsAck,
 }
 
 impl TelemetryBatch {
-    /// Parse a `g h i j k s q x z` batch; an error names the first unexpected frame.
+    /// Parse a `g h i j k s q x y z` batch; an error names the first unexpected frame.
     pub fn parse(batch: &TimedBatch) -> Result<Self, String> {
         if !batch.is_telemetry() {
             return Err(format!(
@@ -116,6 +119,7 @@ impl TelemetryBatch {
             switch_pressed: false,
             quadrature_errors: [0; WHEEL_COUNT],
             faults: Faults::default(),
+            settings_ack: SettingsAck::default(),
         };
         for frame in &batch.frames[..TELEMETRY_FRAMES] {
             match Telemetry::from_frame(*frame) {
@@ -126,6 +130,7 @@ impl TelemetryBatch {
                     parsed.quadrature_errors = q;
                 }
                 Ok(Telemetry::Faults(faults)) => parsed.faults = faults,
+                Ok(Telemetry::SettingsAck(ack)) => parsed.settings_ack = ack,
                 Ok(other) => return Err(format!("unexpected message {other:?} in a batch")),
                 Err(e) => return Err(format!("bad frame {frame:?}: {e}")),
             }

@@ -1,7 +1,8 @@
 //! Differential test: the ELF against `ratf_protocol::mcu::Mcu` on the host.
 //!
 //! The firmware runs a scripted 20-period session: command batches (speed references,
-//! `K`, `L`), garbage, a corrupted batch, a silence long enough to trip the watchdog and a
+//! `K`, `L`, the controller settings `M`..`T` with one refused value), garbage, a
+//! corrupted batch, a silence long enough to trip the watchdog and a
 //! resume, encoder edges and skipped transitions, and switch presses. The host `Mcu` gets
 //! the same bytes at the same times (on the firmware's clock), the same encoder deltas per
 //! control tick, the same switch level and the same invalid-transition counts. Then:
@@ -27,6 +28,7 @@ use ratf_hil_tests::sim::{CYCLES_PER_MS, CYCLES_PER_US, Hil, UART_BYTE_CYCLES};
 use ratf_hil_tests::telemetry::TelemetryBatch;
 use ratf_protocol::mcu::{Actuation, Mcu, McuConfig, TickInputs};
 use ratf_protocol::messages::{Command, Wheel};
+use ratf_protocol::settings::Setting;
 
 const PERIODS: usize = 20;
 
@@ -72,8 +74,24 @@ fn script() -> Vec<Period> {
     }]);
     corrupted[6] = b'7';
     periods[5].sends.push(corrupted);
+    // The settings in two batches of four (45 bytes each, within the period's window),
+    // each after the period's references (batches are made in sending order: each carries
+    // the next sequence number); the voltage limit above the new battery is refused.
+    let setting = |setting, value| Command::Setting { setting, value };
     periods[6].sends.push(host.batch(&wheel_speeds(refs)));
+    periods[6].sends.push(host.batch(&[
+        setting(Setting::Kc, 0.7),
+        setting(Setting::Ki, 6.5),
+        setting(Setting::Kf, 0.05),
+        setting(Setting::DeadZoneV0, 0.2),
+    ]));
     periods[7].sends.push(host.batch(&wheel_speeds(refs)));
+    periods[7].sends.push(host.batch(&[
+        setting(Setting::DeadZoneVd, 0.1),
+        setting(Setting::BatteryVoltage, 12.0),
+        setting(Setting::VoltageLimit, 12.5),
+        setting(Setting::TicksPerWheelRev, 1401.6),
+    ]));
     periods[9].switch_pressed = Some(false);
     periods[10].skips = [1, 0, 0, 0];
     // Periods 8..=14: silence; the watchdog trips. Period 15 resumes.
@@ -246,4 +264,13 @@ fn firmware_transcript_equals_the_host_mcu() {
     assert!(actuations[12..15].iter().any(|(a, _)| a.pwm == [0; 4]));
     assert!(actuations[PERIODS - 1].0.pwm.iter().all(|&p| p > 0));
     assert!(actuations.iter().any(|(_, s)| *s));
+    let last = TelemetryBatch::parse(&firmware_batches[PERIODS])
+        .unwrap_or_else(|e| panic!("last firmware batch: {e}"));
+    let limit = Setting::VoltageLimit.bit();
+    assert_eq!(
+        (last.settings_ack.applied, last.settings_ack.refused),
+        (!limit, limit),
+        "seven settings applied, the limit above the battery refused"
+    );
+    assert_eq!(mcu.config().pi.gains.kc_v_per_rad_s, 0.7);
 }

@@ -1,6 +1,8 @@
-//! The 50 kHz encoder ISR (TIMER1_COMPA, `__vector_17`) fits its budget: at most 100 cycles
-//! on its longest path, hardware entry and `reti` included (issue 3). The count is static
-//! (see `isr_cycles`), so it is deterministic and may be asserted exactly.
+//! The firmware's budgets: the 50 kHz encoder ISR (TIMER1_COMPA, `__vector_17`) fits 100
+//! cycles on its longest path, hardware entry and `reti` included (issue 3); interrupts are
+//! never off for long, which bounds how late an encoder sample can be (issue 16); flash and
+//! static RAM fit 32 KiB and 2 KiB. The counts are static (see `isr_cycles`), so they are
+//! deterministic and may be asserted exactly.
 
 use ratf_hil_tests::firmware::elf_path;
 use ratf_hil_tests::isr_cycles::{TIMER1_COMPA_VECTOR, disassemble, isr_bounds};
@@ -23,4 +25,80 @@ fn encoder_isr_fits_100_cycles() {
         "the encoder ISR takes up to {} cycles, over the {ISR_BUDGET_CYCLES}-cycle budget",
         bounds.max
     );
+}
+
+/// The longest time interrupts can stay off, cycles: every other handler's entry up to its
+/// `sei`, and every critical section (`cli` … SREG restore). The encoder interrupt can be
+/// held off this long, so its sample (the `in` of `PINA`, 17 cycles after the compare
+/// match when nothing holds it off) comes at most this much later. Edges are lost when two
+/// consecutive samples are further apart than two edges: at 45 000 edges/s that needs the
+/// jitter to stay under 355 − 320 = 35 cycles, which this firmware does not reach (its
+/// longest critical section, 51 cycles, is the main loop taking the closed control window
+/// out of its `RefCell`); the bound asserted is the one it has, so that it does not grow
+/// unnoticed.
+const MAX_INTERRUPTS_OFF_CYCLES: u64 = 51;
+
+#[test]
+fn interrupts_are_never_off_for_long_so_a_sample_is_delayed_by_a_bounded_time() {
+    use ratf_hil_tests::isr_cycles::{AnalysisError, critical_sections, vector_interrupts_off};
+    let elf = elf_path().unwrap_or_else(|e| panic!("{e}"));
+    let code = disassemble(&elf).unwrap_or_else(|e| panic!("{e}"));
+    let mut worst = (0, String::new());
+    for (vector, name) in [(25, "USART0_RX"), (26, "USART0_UDRE"), (32, "TIMER3_COMPA")] {
+        let off = vector_interrupts_off(&code, vector)
+            .unwrap_or_else(|e| panic!("cannot bound {name}'s entry: {e}"));
+        println!(
+            "{name}: interrupts off for at most {} cycles from its entry",
+            off.max
+        );
+        if off.max > worst.0 {
+            worst = (off.max, name.to_owned());
+        }
+    }
+    let mut never_enabled = Vec::new();
+    for (address, bounds) in critical_sections(&code) {
+        match bounds {
+            Ok(b) => {
+                println!(
+                    "critical section at 0x{address:x}: at most {} cycles",
+                    b.max
+                );
+                if b.max > worst.0 {
+                    worst = (b.max, format!("the critical section at 0x{address:x}"));
+                }
+            }
+            // The panic handler disables interrupts for good (and stops the firmware); the
+            // boot's `Encoders::start` runs before interrupts are first enabled.
+            Err(AnalysisError::Loop { .. } | AnalysisError::Diverges { .. }) => {
+                never_enabled.push(address);
+            }
+            Err(e) => panic!("cannot bound the critical section at 0x{address:x}: {e}"),
+        }
+    }
+    println!(
+        "worst: {} cycles ({}); a sample is at most that late; cli not followed by an \
+         enable on any returning path (panic handler, boot): {never_enabled:x?}",
+        worst.0, worst.1
+    );
+    assert!(never_enabled.len() <= 3, "{never_enabled:x?}");
+    assert!(
+        worst.0 <= MAX_INTERRUPTS_OFF_CYCLES,
+        "interrupts can be off for {} cycles ({}), over {MAX_INTERRUPTS_OFF_CYCLES}",
+        worst.0,
+        worst.1
+    );
+}
+
+/// The firmware's memory budget (issue 16): 32 KiB of flash, 2 KiB of static RAM.
+#[test]
+fn flash_and_static_ram_fit_their_budget() {
+    use ratf_hil_tests::firmware::memory_use;
+    let elf = elf_path().unwrap_or_else(|e| panic!("{e}"));
+    let memory = memory_use(&elf).unwrap_or_else(|e| panic!("{e}"));
+    println!(
+        "flash {} B of 32768, static RAM {} B of 2048",
+        memory.flash_bytes, memory.ram_bytes
+    );
+    assert!(memory.flash_bytes <= 32 * 1024, "{memory:?}");
+    assert!(memory.ram_bytes <= 2 * 1024, "{memory:?}");
 }

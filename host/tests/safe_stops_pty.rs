@@ -173,7 +173,7 @@ fn forward(mut master: File, world: &Path, batches: &Mutex<Vec<Batch>>, quit: &A
                     current.speeds = [None; WHEEL_COUNT];
                     current.solenoid = None;
                 }
-                Ok(MegaCommand::MotorPwm { .. }) | Err(_) => {}
+                Ok(MegaCommand::MotorPwm { .. } | MegaCommand::Setting { .. }) | Err(_) => {}
             });
             batches
                 .lock()

@@ -10,6 +10,7 @@
 //! - [`messages`]: typed frames both ways, units in the names.
 //! - [`quadrature`]: the paper's Table I as a lookup table, plus skipped-state detection.
 //! - [`pi`]: the wheel speed controller (PI + feed-forward + dead zone + anti-windup).
+//! - [`settings`]: the controller settings the host sends the Mega, and their acknowledgement.
 //! - [`mcu`]: the Mega's whole behaviour as a pure state machine.
 //!
 //! The wire format is specified with byte-exact examples in `protocol/README.md`.
@@ -25,3 +26,4 @@ pub mod mcu;
 pub mod messages;
 pub mod pi;
 pub mod quadrature;
+pub mod settings;

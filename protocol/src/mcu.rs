@@ -27,8 +27,13 @@
 //!   that only speaks after hearing `g` can never deadlock (§10.1). The Mega boots timed out:
 //!   motors stay off until the host speaks. A new `G` or `K` resumes control.
 //! - Speeds are computed with the *measured* period, which is also reported on `k` (§10.4).
-//! - The PI's anti-windup limit is the battery voltage, the real actuator limit (§10.5).
-//! - Telemetry batch, every tick: `g h i j k s q x`, then the checksum frame `z` when
+//! - The PI's anti-windup limit is the battery voltage, the real actuator limit (§10.5), or
+//!   the lower voltage limit the host set.
+//! - `M`..`T` set the controller settings ([`crate::settings`]): each valid value replaces
+//!   the compiled default at once (the PIs keep their integrals); an invalid one is refused,
+//!   counted as a bad message and flagged in `y`. A reset brings the defaults back, so the
+//!   host resends them after every `r`.
+//! - Telemetry batch, every tick: `g h i j k s q x y`, then the checksum frame `z` when
 //!   checksums are on.
 
 use crate::channels::{FRAME_LEN, Frame};
@@ -37,10 +42,11 @@ use crate::integrity::{
 };
 use crate::messages::{Command, Faults, QuadratureErrors, Telemetry, WHEEL_COUNT, Wheel};
 use crate::pi::{PiConfig, PiController};
+use crate::settings::{SETTING_COUNT, Setting, SettingsAck, fingerprint};
 use core::f32::consts::TAU;
 
-/// Frames in one telemetry batch, checksum excluded: `g h i j k s q x`.
-pub const TELEMETRY_FRAMES: usize = 8;
+/// Frames in one telemetry batch, checksum excluded: `g h i j k s q x y`.
+pub const TELEMETRY_FRAMES: usize = 9;
 /// Largest telemetry batch on the wire, bytes (with its checksum frame).
 pub const TELEMETRY_BATCH_MAX_LEN: usize = (TELEMETRY_FRAMES + 1) * FRAME_LEN;
 /// Largest host batch the Mega buffers, frames (the host sends `G H I J L`).
@@ -58,8 +64,11 @@ pub struct McuConfig {
     /// (gearbox), original §2.2 (the paper's 2796.8 uses 43.7).
     pub ticks_per_wheel_rev: f32,
     /// Voltage that PWM `pwm_max` delivers, V: the battery voltage. 11.1 V, the 3S LiPo's
-    /// nominal voltage, original §2.2. Also the PI's anti-windup and saturation limit.
+    /// nominal voltage, original §2.2. Also bounds the PI's limit ([`Self::voltage_limit_v`]).
     pub battery_voltage_v: f32,
+    /// The PI's anti-windup and saturation limit, V; the battery voltage applies when it is
+    /// lower. 11.1 V: the battery's, so by default the whole actuator range (§10.5).
+    pub voltage_limit_v: f32,
     /// Largest PWM magnitude. 255: the Adafruit Motor Shield V2 library's 8-bit speed.
     pub pwm_max: i16,
     /// Largest PWM change per tick (slew limit). 100: original §2.2. Not applied to a
@@ -79,10 +88,56 @@ impl Default for McuConfig {
             watchdog_timeout_us: 100_000,
             ticks_per_wheel_rev: 2803.2,
             battery_voltage_v: 11.1,
+            voltage_limit_v: 11.1,
             pwm_max: 255,
             pwm_slew_per_tick: 100,
             pi: PiConfig::default(),
             send_checksums: true,
+        }
+    }
+}
+
+impl McuConfig {
+    /// The value of `setting`, in its unit.
+    pub fn setting(&self, setting: Setting) -> f32 {
+        let pi = &self.pi;
+        match setting {
+            Setting::Kc => pi.gains.kc_v_per_rad_s,
+            Setting::Ki => pi.gains.ki_v_per_rad,
+            Setting::Kf => pi.gains.kf_v_per_rad_s,
+            Setting::DeadZoneV0 => pi.dead_zone.v0_v,
+            Setting::DeadZoneVd => pi.dead_zone.vd_v,
+            Setting::BatteryVoltage => self.battery_voltage_v,
+            Setting::VoltageLimit => self.voltage_limit_v,
+            Setting::TicksPerWheelRev => self.ticks_per_wheel_rev,
+        }
+    }
+
+    /// Every setting's value, in [`Setting`] order (what [`fingerprint`] covers).
+    pub fn setting_values(&self) -> [f32; SETTING_COUNT] {
+        Setting::ALL.map(|setting| self.setting(setting))
+    }
+
+    /// The commands that give a Mega this configuration's settings, in sending order.
+    pub fn setting_commands(&self) -> [Command; SETTING_COUNT] {
+        Setting::ALL.map(|setting| Command::Setting {
+            setting,
+            value: self.setting(setting),
+        })
+    }
+
+    /// Set `setting` to `value` (unchecked: see [`Setting::validate`]).
+    fn set(&mut self, setting: Setting, value: f32) {
+        let pi = &mut self.pi;
+        match setting {
+            Setting::Kc => pi.gains.kc_v_per_rad_s = value,
+            Setting::Ki => pi.gains.ki_v_per_rad = value,
+            Setting::Kf => pi.gains.kf_v_per_rad_s = value,
+            Setting::DeadZoneV0 => pi.dead_zone.v0_v = value,
+            Setting::DeadZoneVd => pi.dead_zone.vd_v = value,
+            Setting::BatteryVoltage => self.battery_voltage_v = value,
+            Setting::VoltageLimit => self.voltage_limit_v = value,
+            Setting::TicksPerWheelRev => self.ticks_per_wheel_rev = value,
         }
     }
 }
@@ -184,6 +239,7 @@ pub struct Mcu {
     last_tick_us: Option<u32>,
     pending: Option<PendingTick>,
     bad_messages: u8,
+    settings_ack: SettingsAck,
 }
 
 impl Mcu {
@@ -206,7 +262,17 @@ impl Mcu {
             last_tick_us: None,
             pending: None,
             bad_messages: 0,
+            settings_ack: SettingsAck {
+                applied: 0,
+                refused: 0,
+                fingerprint: fingerprint(&config.setting_values()),
+            },
         }
+    }
+
+    /// The acknowledgement of the settings in force, as sent on `y`.
+    pub fn settings_ack(&self) -> SettingsAck {
+        self.settings_ack
     }
 
     /// The configuration in force.
@@ -261,8 +327,32 @@ impl Mcu {
                 self.feed_watchdog(now_us);
             }
             Ok(Command::Solenoid { on }) => self.solenoid_requested = on,
-            Err(_) => self.bad_messages = self.bad_messages.wrapping_add(1),
+            Ok(Command::Setting { setting, value }) => self.apply_setting(setting, value),
+            Err(_) => {
+                self.bad_messages = self.bad_messages.wrapping_add(1);
+                if let Some(setting) = Setting::from_channel(frame.channel()) {
+                    self.settings_ack.refused |= setting.bit();
+                }
+            }
         }
+    }
+
+    fn apply_setting(&mut self, setting: Setting, value: f32) {
+        if setting
+            .validate(value, self.config.battery_voltage_v)
+            .is_err()
+        {
+            self.bad_messages = self.bad_messages.wrapping_add(1);
+            self.settings_ack.refused |= setting.bit();
+            return;
+        }
+        self.config.set(setting, value);
+        for wheel in &mut self.wheels {
+            wheel.controller.set_config(self.config.pi);
+        }
+        self.settings_ack.applied |= setting.bit();
+        self.settings_ack.refused &= !setting.bit();
+        self.settings_ack.fingerprint = fingerprint(&self.config.setting_values());
     }
 
     fn feed_watchdog(&mut self, now_us: u32) {
@@ -341,6 +431,7 @@ impl Mcu {
         frames[6] =
             Telemetry::QuadratureErrors(QuadratureErrors(inputs.quadrature_errors)).to_frame();
         frames[7] = Telemetry::Faults(faults).to_frame();
+        frames[8] = Telemetry::SettingsAck(self.settings_ack).to_frame();
         TxBatch::write(&mut self.writer, &frames)
     }
 
@@ -371,6 +462,10 @@ impl Mcu {
         }
 
         let volts_to_pwm = f32::from(self.config.pwm_max) / self.config.battery_voltage_v;
+        let limit_v = self
+            .config
+            .voltage_limit_v
+            .min(self.config.battery_voltage_v);
         let mut actuation = Actuation {
             pwm: [0; WHEEL_COUNT],
             solenoid_on: self.solenoid_on(),
@@ -380,12 +475,9 @@ impl Mcu {
                 Drive::Off => None,
                 Drive::Pwm(pwm) => Some(pwm),
                 Drive::Speed(reference) => {
-                    let volts = wheel.controller.step(
-                        reference,
-                        measured_rad_s[k],
-                        dt_s,
-                        self.config.battery_voltage_v,
-                    );
+                    let volts = wheel
+                        .controller
+                        .step(reference, measured_rad_s[k], dt_s, limit_v);
                     Some(round_to_pwm(volts * volts_to_pwm, self.config.pwm_max))
                 }
             };
@@ -477,8 +569,8 @@ mod tests {
         let out = mcu.control_tick(20_016, &inputs);
         let frames = decode(out.telemetry.as_bytes());
         let letters: Vec<u8> = frames.iter().map(|f| f.channel()).collect();
-        assert_eq!(letters, b"ghijksqxz");
-        let messages: Vec<Telemetry> = frames[..8]
+        assert_eq!(letters, b"ghijksqxyz");
+        let messages: Vec<Telemetry> = frames[..9]
             .iter()
             .map(|f| Telemetry::from_frame(*f).unwrap())
             .collect();
@@ -775,5 +867,128 @@ mod tests {
                 total: expected
             }
         );
+    }
+
+    fn ack_of(out: &TickOutput) -> SettingsAck {
+        let frames = decode(out.telemetry.as_bytes());
+        match Telemetry::from_frame(frames[8]) {
+            Ok(Telemetry::SettingsAck(ack)) => ack,
+            other => panic!("frame 8 is not y: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn settings_from_the_host_replace_the_defaults_and_are_acknowledged() {
+        let first_pwm = |mcu: &mut Mcu, host: &mut BatchWriter| {
+            send(mcu, host, &speeds(10.0), 0);
+            mcu.control_tick(0, &TickInputs::default()).actuation.pwm[0]
+        };
+        let mut defaults = Mcu::new(McuConfig::default());
+        let out = defaults.control_tick(0, &TickInputs::default());
+        let ack = ack_of(&out);
+        assert_eq!((ack.applied, ack.refused), (0, 0));
+        assert!(!ack.confirms(&McuConfig::default().setting_values()));
+        let default_pwm = first_pwm(&mut defaults, &mut host());
+
+        let mut wanted = McuConfig::default();
+        wanted.pi.gains.kc_v_per_rad_s *= 2.0;
+        wanted.pi.gains.ki_v_per_rad *= 2.0;
+        wanted.voltage_limit_v = 6.0;
+        wanted.ticks_per_wheel_rev = 1400.0;
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &wanted.setting_commands(), 0);
+        assert_eq!(*mcu.config(), wanted);
+        let ack = ack_of(&mcu.control_tick(0, &TickInputs::default()));
+        assert!(ack.confirms(&wanted.setting_values()), "{ack:?}");
+        // Twice the gains: twice the first drive (10 rad/s of error, integral 0.2 rad).
+        let doubled = first_pwm(&mut mcu, &mut host);
+        assert_eq!(doubled, (2 * default_pwm).min(100));
+        // The 6 V limit holds the output at 6/11.1 of full PWM.
+        let mut pwm = 0;
+        for i in 1..20 {
+            send(&mut mcu, &mut host, &speeds(10.0), i * PERIOD);
+            pwm = mcu
+                .control_tick(i * PERIOD, &TickInputs::default())
+                .actuation
+                .pwm[0];
+        }
+        assert_eq!(pwm, round_to_pwm(6.0 * 255.0 / 11.1, 255));
+    }
+
+    #[test]
+    fn invalid_settings_are_refused_reported_and_never_applied() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        let frames = [
+            Frame::new(b'M', f32::NAN.to_bits()).unwrap(),
+            Command::Setting {
+                setting: Setting::Ki,
+                value: -1.0,
+            }
+            .to_frame(),
+            Command::Setting {
+                setting: Setting::VoltageLimit,
+                value: 12.0,
+            }
+            .to_frame(),
+            Command::Setting {
+                setting: Setting::Kf,
+                value: 0.25,
+            }
+            .to_frame(),
+        ];
+        let mut buf = [0u8; 64];
+        let n = host.write_batch(&frames, &mut buf).unwrap();
+        mcu.receive(&buf[..n], 0);
+        let mut expected = McuConfig::default();
+        expected.pi.gains.kf_v_per_rad_s = 0.25;
+        assert_eq!(*mcu.config(), expected);
+        let out = mcu.control_tick(0, &TickInputs::default());
+        let ack = ack_of(&out);
+        assert_eq!(ack.applied, Setting::Kf.bit());
+        let refused = Setting::Kc.bit() | Setting::Ki.bit() | Setting::VoltageLimit.bit();
+        assert_eq!(ack.refused, refused);
+        let faults = Telemetry::from_frame(decode(out.telemetry.as_bytes())[7]).unwrap();
+        assert!(matches!(faults, Telemetry::Faults(f) if f.rx_bad_messages == 3));
+        // A valid value clears the refusal; a lower battery then bounds the limit.
+        send(
+            &mut mcu,
+            &mut host,
+            &[Command::Setting {
+                setting: Setting::VoltageLimit,
+                value: 11.0,
+            }],
+            0,
+        );
+        assert_eq!(
+            mcu.settings_ack().refused,
+            Setting::Kc.bit() | Setting::Ki.bit()
+        );
+        send(
+            &mut mcu,
+            &mut host,
+            &[
+                Command::Setting {
+                    setting: Setting::BatteryVoltage,
+                    value: 7.4,
+                },
+                Command::WheelSpeed {
+                    wheel: Wheel::BackRight,
+                    speed_rad_s: 30.0,
+                },
+            ],
+            0,
+        );
+        let mut volts = 0.0;
+        for i in 1..10 {
+            send(&mut mcu, &mut host, &speeds(30.0)[..1], i * PERIOD);
+            let pwm = mcu
+                .control_tick(i * PERIOD, &TickInputs::default())
+                .actuation
+                .pwm[0];
+            volts = f32::from(pwm) * 7.4 / 255.0;
+        }
+        assert!((volts - 7.4).abs() < 0.03, "{volts} V");
     }
 }

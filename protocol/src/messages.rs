@@ -10,9 +10,13 @@
 //! `q` (invalid quadrature transitions) and `x` (fault counters). A peer that only speaks
 //! the original protocol ignores them, as it ignores any unregistered channel.
 //!
+//! The controller settings `M`..`T` (host → Mega) and their acknowledgement `y` are ours
+//! too; [`crate::settings`] describes them.
+//!
 //! The letters `Z` and `z` are reserved for the [`crate::integrity`] checksum frames.
 
 use crate::channels::Frame;
+use crate::settings::{SETTINGS_ACK_CHANNEL, Setting, SettingsAck};
 use core::fmt;
 
 /// A wheel, numbered as the firmware's motor index (original-system.md §2.1).
@@ -82,7 +86,8 @@ pub const FAULTS_CHANNEL: u8 = b'x';
 pub enum MessageError {
     /// No message of this direction uses this channel letter.
     UnknownChannel(u8),
-    /// A `G`..`J` reference is NaN or infinite (it would poison the controller).
+    /// A `G`..`J` reference or an `M`..`T` setting is NaN or infinite (it would poison the
+    /// controller).
     NotFinite {
         /// The channel letter.
         channel: u8,
@@ -154,6 +159,14 @@ pub enum Command {
         /// True energises the electromagnet.
         on: bool,
     },
+    /// `M`..`T`: one controller setting ([`crate::settings`]). Decoding checks only that
+    /// the value is finite; the Mega checks its range ([`Setting::validate`]).
+    Setting {
+        /// Which setting.
+        setting: Setting,
+        /// The value, in the setting's unit.
+        value: f32,
+    },
 }
 
 impl Command {
@@ -168,6 +181,7 @@ impl Command {
                 (u32::from(wheel as u8) << 24) | u32::from(pwm as u16),
             ),
             Self::Solenoid { on } => (SOLENOID_CHANNEL, u32::from(on)),
+            Self::Setting { setting, value } => (setting.channel(), value.to_bits()),
         };
         // Every letter above is a valid channel letter.
         match Frame::new(channel, value) {
@@ -201,7 +215,16 @@ impl Command {
             SOLENOID_CHANNEL => Ok(Self::Solenoid {
                 on: boolean(channel, value)?,
             }),
-            _ => Err(MessageError::UnknownChannel(channel)),
+            _ => match Setting::from_channel(channel) {
+                Some(setting) => {
+                    let value = f32::from_bits(value);
+                    if !value.is_finite() {
+                        return Err(MessageError::NotFinite { channel });
+                    }
+                    Ok(Self::Setting { setting, value })
+                }
+                None => Err(MessageError::UnknownChannel(channel)),
+            },
         }
     }
 }
@@ -282,6 +305,8 @@ pub enum Telemetry {
     QuadratureErrors(QuadratureErrors),
     /// `x`: fault counters.
     Faults(Faults),
+    /// `y`: the controller settings in force ([`crate::settings`]).
+    SettingsAck(SettingsAck),
 }
 
 impl Telemetry {
@@ -297,6 +322,7 @@ impl Telemetry {
                 (QUADRATURE_ERRORS_CHANNEL, u32::from_le_bytes(counts))
             }
             Self::Faults(faults) => (FAULTS_CHANNEL, faults.to_value()),
+            Self::SettingsAck(ack) => (SETTINGS_ACK_CHANNEL, ack.to_value()),
         };
         match Frame::new(channel, value) {
             Ok(frame) => frame,
@@ -322,6 +348,7 @@ impl Telemetry {
                 value.to_le_bytes(),
             ))),
             FAULTS_CHANNEL => Ok(Self::Faults(Faults::from_value(value))),
+            SETTINGS_ACK_CHANNEL => Ok(Self::SettingsAck(SettingsAck::from_value(value))),
             _ => Err(MessageError::UnknownChannel(channel)),
         }
     }
@@ -350,6 +377,10 @@ mod tests {
                 .prop_map(|(wheel, speed_rad_s)| Command::WheelSpeed { wheel, speed_rad_s }),
             (wheel(), any::<i16>()).prop_map(|(wheel, pwm)| Command::MotorPwm { wheel, pwm }),
             any::<bool>().prop_map(|on| Command::Solenoid { on }),
+            (0usize..8, -1.0e6f32..1.0e6).prop_map(|(k, value)| Command::Setting {
+                setting: Setting::ALL[k],
+                value,
+            }),
         ]
     }
 
@@ -361,6 +392,7 @@ mod tests {
             Just(Telemetry::Reset),
             any::<[u8; 4]>().prop_map(|c| Telemetry::QuadratureErrors(QuadratureErrors(c))),
             any::<u32>().prop_map(|v| Telemetry::Faults(Faults::from_value(v))),
+            any::<u32>().prop_map(|v| Telemetry::SettingsAck(SettingsAck::from_value(v))),
         ]
     }
 
@@ -408,6 +440,11 @@ mod tests {
             &encoded_command(Command::Solenoid { on: true }),
             b"L00000001"
         );
+        let limit = Command::Setting {
+            setting: Setting::VoltageLimit,
+            value: 10.0,
+        };
+        assert_eq!(&encoded_command(limit), b"S41200000");
     }
 
     #[test]
@@ -437,6 +474,12 @@ mod tests {
             serial_bytes_dropped: 0xFF,
         };
         assert_eq!(&bytes(Telemetry::Faults(faults)), b"xFF001003");
+        let ack = SettingsAck {
+            applied: 0xFF,
+            refused: 0x02,
+            fingerprint: 0xABCD,
+        };
+        assert_eq!(&bytes(Telemetry::SettingsAck(ack)), b"yABCD02FF");
     }
 
     #[test]
@@ -459,6 +502,14 @@ mod tests {
                 channel: b'L',
                 value: 2
             })
+        );
+        assert_eq!(
+            Command::from_frame(frame(b'S', f32::INFINITY.to_bits())),
+            Err(MessageError::NotFinite { channel: b'S' })
+        );
+        assert_eq!(
+            Command::from_frame(frame(b'U', 0)),
+            Err(MessageError::UnknownChannel(b'U'))
         );
         assert_eq!(
             Command::from_frame(frame(b'g', 0)),

@@ -125,6 +125,12 @@ impl PiController {
         }
     }
 
+    /// Use `config` from the next step on, keeping the integral (new gains from the host
+    /// take effect without a jump in the integral's state).
+    pub fn set_config(&mut self, config: PiConfig) {
+        self.config = config;
+    }
+
     /// Clear the integral (when the controller is enabled or disabled).
     pub fn reset(&mut self) {
         self.integral_rad = 0.0;

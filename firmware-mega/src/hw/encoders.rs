@@ -51,9 +51,10 @@ pub struct FlashTable([u8; TABLE_LEN]);
 #[repr(transparent)]
 pub struct IsrBytes<const N: usize>(UnsafeCell<[u8; N]>);
 
-// SAFETY: the bytes are written only by the encoder interrupt, and read only by code that
-// runs with interrupts disabled (the time-base interrupt, or `start` before the encoder
-// interrupt is enabled), so no access ever overlaps a write on this single-core MCU.
+// SAFETY: the bytes are written only by the encoder interrupt, one store per byte, and read
+// either with interrupts disabled (`start`, before the encoder interrupt is enabled) or one
+// byte at a time (the time-base interrupt), so no read ever sees a half-written value on
+// this single-core MCU.
 unsafe impl<const N: usize> Sync for IsrBytes<N> {}
 
 impl<const N: usize> IsrBytes<N> {
@@ -66,6 +67,17 @@ impl<const N: usize> IsrBytes<N> {
         // SAFETY: the pointer is valid and aligned (it comes from the cell), and the
         // critical section guarantees the encoder interrupt is not writing meanwhile.
         unsafe { core::ptr::read_volatile(self.0.get()) }
+    }
+
+    /// Read the bytes one at a time, interrupts allowed: each byte is read whole (a single
+    /// load), but an encoder interrupt may update later bytes between two reads.
+    fn read_bytewise(&self) -> [u8; N] {
+        let base = self.0.get().cast::<u8>();
+        core::array::from_fn(|k| {
+            // SAFETY: `k < N`, so the pointer stays inside the array; a one-byte volatile
+            // load cannot tear, and the encoder interrupt writes each byte with one store.
+            unsafe { core::ptr::read_volatile(base.add(k)) }
+        })
     }
 }
 
@@ -171,21 +183,23 @@ pub unsafe extern "C" fn __vector_17() {
     );
 }
 
-// Timer3 compare A, every millisecond: advance the clock and fold the encoder counters.
-// It copies the encoder bytes with interrupts still disabled (a few cycles), then enables
-// interrupts for the fold, so the encoder interrupt is never held off by the fold.
-#[avr_device::interrupt(atmega2560)]
-fn TIMER3_COMPA() {
-    // SAFETY: interrupts are disabled on entry to a handler, so this is a critical section
-    // until `enable` below; the token is used only for the two reads before that.
-    let cs = unsafe { interrupt::CriticalSection::new() };
-    let positions = POSITIONS.read(cs);
-    let skips = SKIPS.read(cs);
-    // SAFETY: enabling interrupts here lets the encoder and serial handlers nest inside
-    // this one. None of them touches FOLD, this handler cannot nest inside itself (it
-    // runs for far less than its 1 ms period), and the main loop, the only other user of
-    // FOLD, is suspended until this handler returns.
-    unsafe { interrupt::enable() };
+/// Timer3 compare A (vector 32), every millisecond: advance the clock and fold the encoder
+/// counters. A non-blocking handler: its first instruction is `sei`, so interrupts are off
+/// only for the hardware entry, the vector's `jmp` and that `sei`. The encoder bytes are
+/// then read one at a time with interrupts on: each byte is read whole (one `lds`), and the
+/// fold works on each counter's own change since its previous read, so an encoder interrupt
+/// between two reads only moves that sample's later counters into the next millisecond.
+///
+/// # Safety
+///
+/// Only the hardware calls it, as the `TIMER3_COMPA` vector (the hardware clears its flag on
+/// entry). Nothing else touches [`FOLD`] while it runs: the encoder and serial handlers that
+/// may nest inside it do not, it cannot nest inside itself (it runs for far less than its
+/// 1 ms period), and the main loop, the only other user, is suspended until it returns.
+#[unsafe(no_mangle)]
+pub unsafe extern "avr-non-blocking-interrupt" fn __vector_32() {
+    let positions = POSITIONS.read_bytewise();
+    let skips = SKIPS.read_bytewise();
     // SAFETY: as above, no other code can access FOLD until this handler returns, which is
     // the exclusivity a critical section would give.
     let cs = unsafe { interrupt::CriticalSection::new() };

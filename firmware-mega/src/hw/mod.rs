@@ -1,8 +1,9 @@
 //! The hardware layer: the only modules that touch registers, interrupts or `unsafe`.
 //!
 //! Each submodule owns one peripheral and exposes a safe API; the rest of the crate is
-//! plain logic. Interrupt handlers share state with the main loop only through
-//! `avr_device::interrupt::Mutex` (taken in `interrupt::free`), except the encoder
+//! plain logic. Interrupt handlers share state with the main loop only inside critical
+//! sections (`interrupt::free`): through `avr_device::interrupt::Mutex`, or for the serial
+//! rings a `CsCell` without a borrow flag ([`usart`]); the exception is the encoder
 //! interrupt, whose few bytes are documented in [`encoders`].
 //!
 //! Reserved for the encoder interrupt, never to be used elsewhere: `GPIOR0` (the previous

@@ -302,6 +302,7 @@ mod tests {
                 switch_pressed: false,
                 quadrature_errors: None,
                 faults: None,
+                settings_ack: None,
                 verified: true,
                 received_at_us: 0,
                 sampled_at_us: 0,

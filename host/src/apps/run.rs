@@ -364,7 +364,7 @@ pub fn open_devices(
         }
     };
 
-    let mega = MegaHandle::new(mega_settings.link);
+    let mega = MegaHandle::new(mega_settings.link, mega_settings.controller);
     let lidar_handle = LidarHandle::new();
     let guard = StopGuard {
         mega: mega.clone(),

@@ -15,6 +15,9 @@
 //! - **Host watchdog** (§10.2, on the age of the last reference): if the core produced no
 //!   references for [`DEFAULT_REFERENCE_TIMEOUT_US`], this thread writes zero references
 //!   and magnet off every control period until the core speaks again.
+//! - **Controller settings**: the config's gains, feed-forward, dead zone, battery voltage
+//!   and ticks per revolution go to the Mega before the first write, after every `r` and
+//!   when its `y` does not confirm them ([`SettingsSync`]), ahead of the next batch.
 //! - **Open-loop hold** (`ratf check`): while a [`OpenLoopHold`] is in force this thread
 //!   resends its `K` PWM and `L` every control period instead
 //!   ([`MegaHandle::hold_open_loop`]).
@@ -28,7 +31,9 @@ use ratf_core::drivers::mega_link::{
     DEFAULT_REFERENCE_TIMEOUT_US, MegaEvent, MegaLink, MegaLinkConfig, MegaLinkStats,
     reference_is_stale,
 };
+use ratf_core::drivers::mega_settings::SettingsSync;
 use ratf_core::runtime::{DeviceKind, Input, Stamped, Timestamp, WheelCommand};
+use ratf_protocol::mcu::McuConfig;
 use serialport::SerialPort;
 
 use super::open_loop::{OpenLoopHold, batch_due};
@@ -54,6 +59,8 @@ pub struct MegaSettings {
     pub give_up_after: Duration,
     /// The host watchdog's timeout, µs.
     pub watchdog_timeout_us: u64,
+    /// The controller settings sent to the Mega (from `[mega]`, `robot` and `motor`).
+    pub controller: McuConfig,
 }
 
 impl MegaSettings {
@@ -71,6 +78,7 @@ impl MegaSettings {
             reconnect_period: Duration::from_millis(config.link.reconnect_period_ms.into()),
             give_up_after: Duration::from_secs(config.link.give_up_after_s.into()),
             watchdog_timeout_us: DEFAULT_REFERENCE_TIMEOUT_US,
+            controller: config.mcu_config(),
         }
     }
 }
@@ -99,6 +107,8 @@ struct Writer {
     held_batches: (u64, u64),
     /// The reading half's link counters, as last published by the thread.
     link_stats: Option<MegaLinkStats>,
+    /// The controller settings and whether they are due.
+    settings: SettingsSync,
 }
 
 impl std::fmt::Debug for Writer {
@@ -114,7 +124,27 @@ impl std::fmt::Debug for Writer {
 }
 
 impl Writer {
+    /// Write the settings batch first if it is due; false if the port failed.
+    fn settings_first(&mut self) -> bool {
+        let Some(port) = self.port.as_mut() else {
+            return false;
+        };
+        let Some(bytes) = self.settings.take_due(&mut self.link) else {
+            return true;
+        };
+        if port.write_all(&bytes).is_ok() {
+            return true;
+        }
+        // The reading thread sees the port go and reconnects; the settings stay due.
+        self.settings.mark_due();
+        self.port = None;
+        false
+    }
+
     fn write(&mut self, command: &WheelCommand, now_us: u64) -> bool {
+        if !self.settings_first() {
+            return false;
+        }
         let Some(port) = self.port.as_mut() else {
             return false;
         };
@@ -140,6 +170,9 @@ impl Writer {
 
     /// Write `hold`'s PWM and magnet now (and count it); false if not writable.
     fn write_hold(&mut self, hold: &OpenLoopHold, now_us: u64) -> bool {
+        if !self.settings_first() {
+            return false;
+        }
         let Some(port) = self.port.as_mut() else {
             return false;
         };
@@ -167,8 +200,9 @@ pub struct MegaHandle {
 }
 
 impl MegaHandle {
-    /// A handle with no port yet; `link` encodes the batches.
-    pub fn new(link: MegaLinkConfig) -> Self {
+    /// A handle with no port yet; `link` encodes the batches, `controller` holds the
+    /// settings sent to the Mega.
+    pub fn new(link: MegaLinkConfig, controller: McuConfig) -> Self {
         Self {
             writer: Arc::new(Mutex::new(Writer {
                 port: None,
@@ -180,6 +214,7 @@ impl MegaHandle {
                 hold: None,
                 held_batches: (0, 0),
                 link_stats: None,
+                settings: SettingsSync::new(controller),
             })),
         }
     }
@@ -230,6 +265,21 @@ impl MegaHandle {
 
     fn note_link_stats(&self, stats: MegaLinkStats) {
         self.lock().link_stats = Some(stats);
+    }
+
+    fn note_event(&self, event: &MegaEvent) {
+        self.lock().settings.on_event(event);
+    }
+
+    fn settings_due(&self) {
+        self.lock().settings.mark_due();
+    }
+
+    /// Settings batches sent so far, and whether the Mega's latest `y` confirms them
+    /// (false for an original Mega, which does not acknowledge).
+    pub fn settings_state(&self) -> (u32, bool) {
+        let writer = self.lock();
+        (writer.settings.sends(), writer.settings.confirmed())
     }
 
     /// Batches written so far: by the core, and by the watchdog.
@@ -363,6 +413,7 @@ impl MegaThread {
     fn session(&mut self, mut port: Box<dyn SerialPort>) -> String {
         // Opening reset the board: start over, and write nothing until it speaks.
         self.link.reset();
+        self.handle.settings_due();
         let mut writer = match port.try_clone() {
             Ok(clone) => Some(clone),
             Err(e) => return format!("cannot share the port: {e}"),
@@ -379,7 +430,9 @@ impl MegaThread {
                 Ok(0) => return "the port closed".to_owned(),
                 Ok(n) => {
                     let now = self.clock.now();
+                    let handle = &self.handle;
                     self.link.feed(&buf[..n], now.as_us(), |event| {
+                        handle.note_event(&event);
                         inputs.push(match event {
                             MegaEvent::Telemetry(telemetry) => Input::Wheels(telemetry),
                             MegaEvent::Reset { .. } => Input::MegaReset,

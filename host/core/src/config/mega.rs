@@ -64,13 +64,17 @@ impl Default for MegaConfig {
 }
 
 impl MegaConfig {
-    /// The protocol's configuration (f32 on the Mega).
+    /// The protocol's configuration (f32 on the Mega). The host sends its controller
+    /// settings (gains, feed-forward, dead zone, battery voltage as the voltage limit, ticks
+    /// per revolution) to the real Mega at start-up and after every reset.
     pub fn to_mcu_config(&self, ticks_per_wheel_rev: f64, battery_voltage_v: f64) -> McuConfig {
         McuConfig {
             control_period_us: self.control_period_us,
             watchdog_timeout_us: self.watchdog_timeout_us,
             ticks_per_wheel_rev: ticks_per_wheel_rev as f32,
             battery_voltage_v: battery_voltage_v as f32,
+            // The whole battery: the PI saturates where the actuator does (§10.5).
+            voltage_limit_v: battery_voltage_v as f32,
             pwm_max: self.pwm_max,
             pwm_slew_per_tick: self.pwm_slew_per_tick,
             pi: PiConfig {

@@ -30,7 +30,9 @@ use ratf_protocol::channels::{FRAME_LEN, Frame};
 use ratf_protocol::integrity::{
     BatchReceiver, BatchWriter, HOST_CHECKSUM_CHANNEL, LinkStats, MCU_CHECKSUM_CHANNEL, Mode,
 };
+use ratf_protocol::mcu::McuConfig;
 use ratf_protocol::messages::{Command, Faults, QuadratureErrors, Telemetry, WHEEL_COUNT, Wheel};
+use ratf_protocol::settings::SettingsAck;
 
 /// Largest Mega batch buffered, frames: our Mega sends 8 (`g h i j k s q x`); twice that
 /// leaves room without letting a broken stream hold much.
@@ -61,6 +63,10 @@ pub struct WheelTelemetry {
     pub quadrature_errors: Option<QuadratureErrors>,
     /// The Mega's fault counters (`x`), the latest received; `None` as above.
     pub faults: Option<Faults>,
+    /// The Mega's acknowledgement of the controller settings (`y`), the latest received;
+    /// `None` as above (and in recordings made before the channel existed).
+    #[serde(default)]
+    pub settings_ack: Option<SettingsAck>,
     /// True if the batch was verified by its checksum frame (strict mode).
     pub verified: bool,
     /// Receive time of the bytes that completed the batch, µs (caller's monotonic clock).
@@ -134,6 +140,7 @@ struct Assembler {
     previous_totals: Option<[i32; WHEEL_COUNT]>,
     quadrature_errors: Option<QuadratureErrors>,
     faults: Option<Faults>,
+    settings_ack: Option<SettingsAck>,
     batches: u32,
     incomplete_batches: u32,
     bad_messages: u32,
@@ -186,6 +193,7 @@ impl Assembler {
             }
             Telemetry::QuadratureErrors(q) => self.quadrature_errors = Some(q),
             Telemetry::Faults(f) => self.faults = Some(f),
+            Telemetry::SettingsAck(ack) => self.settings_ack = Some(ack),
         }
     }
 
@@ -248,6 +256,7 @@ impl Assembler {
             switch_pressed,
             quadrature_errors: self.quadrature_errors,
             faults: self.faults,
+            settings_ack: self.settings_ack,
             verified,
             received_at_us: now_us,
             sampled_at_us,
@@ -310,6 +319,7 @@ impl MegaLink {
         self.receiver.reset();
         self.assembler.partial = Partial::default();
         self.assembler.previous_totals = None;
+        self.assembler.settings_ack = None;
     }
 
     /// Feed bytes received from the Mega at `now_us` (any chunking); `on_event` gets every
@@ -387,7 +397,15 @@ impl MegaLink {
         self.write(&commands)
     }
 
-    fn write(&mut self, commands: &[Command; WHEEL_COUNT + 1]) -> Vec<u8> {
+    /// The bytes of one settings batch: `M`..`T` with `config`'s controller settings
+    /// (gains, feed-forward, dead zone, battery voltage, voltage limit, ticks per wheel
+    /// revolution; `ratf_protocol::settings`) and the checksum frame. Our Mega applies them
+    /// and acknowledges them on `y`; an original Mega ignores them.
+    pub fn encode_settings(&mut self, config: &McuConfig) -> Vec<u8> {
+        self.write(&config.setting_commands())
+    }
+
+    fn write<const N: usize>(&mut self, commands: &[Command; N]) -> Vec<u8> {
         let frames = commands.map(|c| c.to_frame());
         let mut out = vec![0; (frames.len() + 1) * FRAME_LEN];
         // The buffer holds the batch and its checksum frame.

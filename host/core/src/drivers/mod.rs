@@ -11,6 +11,8 @@
 //!   bias estimate, and a simulated chip;
 //! - [`mega_link`]: the host side of the Mega serial link (telemetry batches in, wheel
 //!   references out, the host watchdog);
+//! - [`mega_settings`]: when to send the Mega its controller settings (start-up, after a
+//!   reset, when its acknowledgement does not confirm them);
 //! - [`x4`]: the YDLIDAR X4 scan protocol (parser, scan assembler, encoder for the
 //!   simulator).
 //!
@@ -20,4 +22,5 @@
 
 pub mod imu;
 pub mod mega_link;
+pub mod mega_settings;
 pub mod x4;

@@ -286,6 +286,7 @@ mod tests {
             switch_pressed: switch,
             quadrature_errors: Some(QuadratureErrors([0; 4])),
             faults: Some(Faults::default()),
+            settings_ack: None,
             verified: true,
             received_at_us: 0,
             sampled_at_us: 0,

@@ -201,7 +201,10 @@ pub fn run_check(
     let clock = Clock::start();
     let devices = Shared::new();
     let (tx, rx) = crate::devices::inbox(&devices);
-    let mega = MegaHandle::new(MegaSettings::from_config(config).link);
+    let mega = {
+        let settings = MegaSettings::from_config(config);
+        MegaHandle::new(settings.link, settings.controller)
+    };
     let lidar = LidarHandle::new();
     let opened = open(config, clock, &tx, &mega, &lidar, &devices);
     drop(tx);

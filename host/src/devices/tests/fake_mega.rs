@@ -131,6 +131,12 @@ impl FakeMega {
         self.mcu.link_stats()
     }
 
+    /// The configuration the Mega's logic uses now (its defaults plus the host's settings
+    /// since its last boot).
+    pub(crate) fn mcu_config(&self) -> McuConfig {
+        *self.mcu.config()
+    }
+
     /// Batches the host wrote at or after `since`.
     pub(crate) fn batches_since(&self, since: Instant) -> impl Iterator<Item = &HostBatch> {
         self.batches.iter().filter(move |b| b.at >= since)
@@ -224,7 +230,7 @@ impl FakeMega {
                 batches.push(*current);
                 *current = empty_batch(now);
             }
-            Ok(Command::MotorPwm { .. }) | Err(_) => {}
+            Ok(Command::MotorPwm { .. } | Command::Setting { .. }) | Err(_) => {}
         });
     }
 

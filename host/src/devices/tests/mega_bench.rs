@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use ratf_core::drivers::mega_link::MegaLinkConfig;
 use ratf_core::runtime::{DeviceKind, Input, WheelCommand};
+use ratf_protocol::mcu::McuConfig;
 
 use super::fake_mega::FakeMega;
 use super::pty::{Pty, TempDir};
@@ -18,7 +19,8 @@ use crate::devices::{Clock, HOST_TICK_PERIOD_US, LinkState, Message, Shared};
 pub(crate) const BOOT_DELAY: Duration = Duration::from_millis(200);
 
 /// The device thread's settings for the bench: waits for `r` far longer than the boot
-/// delay, retries a lost port every 50 ms, gives up after 10 s.
+/// delay, retries a lost port every 50 ms, gives up after 10 s, keeps
+/// [`tuned_controller`] on the Mega.
 pub(crate) fn settings(port: String) -> MegaSettings {
     MegaSettings {
         port,
@@ -28,7 +30,18 @@ pub(crate) fn settings(port: String) -> MegaSettings {
         reconnect_period: Duration::from_millis(50),
         give_up_after: Duration::from_secs(10),
         watchdog_timeout_us: 200_000,
+        controller: tuned_controller(),
     }
+}
+
+/// The controller settings the bench's host keeps on the Mega: the defaults with other
+/// gains and a lower voltage limit, so a Mega that did not get them is told apart.
+pub(crate) fn tuned_controller() -> McuConfig {
+    let mut config = McuConfig::default();
+    config.pi.gains.kc_v_per_rad_s = 0.6;
+    config.pi.gains.ki_v_per_rad = 5.0;
+    config.voltage_limit_v = 10.5;
+    config
 }
 
 /// The bench: see the module documentation.
@@ -61,7 +74,7 @@ impl MegaBench {
         let clock = Clock::start();
         let shared = Shared::new();
         let (tx, rx) = crate::devices::inbox(&shared);
-        let handle = MegaHandle::new(settings.link);
+        let handle = MegaHandle::new(settings.link, settings.controller);
         let thread = mega::spawn(settings, port, clock, tx, handle.clone(), shared.clone())
             .expect("the thread starts");
         Self {

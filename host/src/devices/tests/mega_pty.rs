@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use ratf_core::runtime::{DeviceKind, Input, WheelCommand};
 
 use super::fake_mega::{CONTROL_PERIOD, HostBatch};
-use super::mega_bench::MegaBench;
+use super::mega_bench::{MegaBench, tuned_controller};
 use crate::devices::{LinkState, Message};
 
 /// What the core commands while it drives: 4 rad/s on every wheel, magnet on.
@@ -198,6 +198,12 @@ fn an_unplugged_mega_is_reopened_and_resynchronised_without_restarting() {
     synchronise(&mut bench);
     bench.run_for(Duration::from_millis(200), Some(DRIVE));
     assert_driving(&bench);
+    assert_eq!(bench.mega.mcu_config(), tuned_controller());
+    assert_eq!(
+        bench.handle.settings_state(),
+        (1, true),
+        "sent once, confirmed"
+    );
 
     let unplugged = Instant::now();
     bench.mega.pty.unplug();
@@ -282,6 +288,13 @@ fn an_unplugged_mega_is_reopened_and_resynchronised_without_restarting() {
             >= 5
     );
     assert_driving(&bench);
+    // The reset Mega came back with its compiled defaults; the host sent its settings again.
+    assert_eq!(bench.mega.mcu_config(), tuned_controller());
+    let (sends, confirmed) = bench.handle.settings_state();
+    assert!(
+        confirmed && sends >= 2,
+        "{sends} settings batches, confirmed {confirmed}"
+    );
     assert!(bench.thread_running());
     assert!(
         !bench

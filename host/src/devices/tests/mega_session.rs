@@ -19,7 +19,7 @@ fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
     let port = open_port(&settings.port, settings.baud).expect("the pty opens");
     let shared = Shared::new();
     let (tx, rx) = crate::devices::inbox(&shared);
-    let handle = MegaHandle::new(settings.link);
+    let handle = MegaHandle::new(settings.link, settings.controller);
     let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
     let session = std::thread::spawn(move || {
         let reason = thread.session(port);

@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use ratf_core::drivers::mega_link::MegaLinkConfig;
 use ratf_core::runtime::{Devices, Input};
+use ratf_protocol::mcu::McuConfig;
 
 use crate::devices::lidar::LidarHandle;
 use crate::devices::mega::MegaHandle;
@@ -29,7 +30,7 @@ fn threads_ending_because_the_run_quits_are_not_a_device_failure() {
         let shared = Shared::new();
         let (tx, rx) = crate::devices::inbox(&shared);
         let writers = Writers {
-            mega: MegaHandle::new(MegaLinkConfig::default()),
+            mega: MegaHandle::new(MegaLinkConfig::default(), McuConfig::default()),
             lidar: LidarHandle::new(),
             referee: referee.clone(),
         };
