@@ -92,6 +92,19 @@ enum Command {
         On every way out the Mega gets zero references and magnet off first."
     )]
     Calibrate(CalibrateArgs),
+    /// Fit the robot's wheel motors and tune the Mega's wheel PI (README, "Fit your robot").
+    #[command(subcommand)]
+    Tune(TuneCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum TuneCommand {
+    /// Identify each wheel motor (gain, time constant, dead zone, delay) from open-loop PWM
+    /// steps: in the simulator (`--sim`) or from a tuning-node log (`--from-csv`).
+    Motors(ratf_host::apps::tune::cli::MotorsArgs),
+    /// PI gains by IMC tuning from the identified model (`[motor]`), with the predicted
+    /// 10 rad/s step; `--write FILE` sets the `[mega]` keys.
+    Gains(ratf_host::apps::tune::cli::GainsArgs),
 }
 
 #[derive(Debug, Args)]
@@ -412,6 +425,12 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
         Command::Bench(BenchCommand::Calibration(args)) => calibration_bench_command(&args)?,
         Command::Calibrate(args) => calibrate_command(&args)?,
+        Command::Tune(TuneCommand::Motors(args)) => {
+            ratf_host::apps::tune::cli::motors_command(&args)?
+        }
+        Command::Tune(TuneCommand::Gains(args)) => {
+            ratf_host::apps::tune::cli::gains_command(&args)?
+        }
         Command::Replay(args) => replay_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {

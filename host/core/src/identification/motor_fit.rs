@@ -116,11 +116,16 @@ pub fn fit(samples: &[Sample]) -> Result<MotorFit, MotorFitError> {
     let (mut step_ln, mut step_delay) = (0.25, 0.01);
     while step_ln > 1e-4 || step_delay > 1e-5 {
         let mut improved = false;
+        // Diagonals too: a longer delay and a shorter time constant trade off.
         for (dl, dd) in [
             (step_ln, 0.0),
             (-step_ln, 0.0),
             (0.0, step_delay),
             (0.0, -step_delay),
+            (step_ln, -step_delay),
+            (-step_ln, step_delay),
+            (step_ln, step_delay),
+            (-step_ln, -step_delay),
         ] {
             let t = (tau.ln() + dl).exp().clamp(tau_lo, tau_hi);
             let d = (delay + dd).clamp(0.0, MAX_DELAY_S);
