@@ -108,7 +108,10 @@ enum TuneCommand {
 }
 
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 struct CalibrateArgs {
+    #[command(subcommand)]
+    what: Option<CalibrateWhat>,
     /// Configuration file (defaults: the competition robot): the robot's beliefs before
     /// calibrating, from which the world is drawn.
     #[arg(long, value_name = "FILE")]
@@ -143,6 +146,14 @@ struct CalibrateArgs {
     /// Folder for the drive's recording (with `--robot`).
     #[arg(long, value_name = "DIR", default_value = "out")]
     out: PathBuf,
+}
+
+#[derive(Debug, Subcommand)]
+enum CalibrateWhat {
+    /// The odometry's wheel radius and lx + ly, in the simulator: the lidar calibrated
+    /// first, then a 67 s drive around machine A with four quarter turns in place, each
+    /// stop's pose fixed from the beacons; `--write FILE` sets the `[robot]` keys.
+    Odometry(ratf_host::apps::calibrate::odometry_cli::OdometryArgs),
 }
 
 #[derive(Debug, Args)]
@@ -1169,6 +1180,9 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
 
 fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     use ratf_host::apps::calibrate;
+    if let Some(CalibrateWhat::Odometry(odometry)) = &args.what {
+        return calibrate::odometry_cli::odometry_command(odometry);
+    }
     if args.robot {
         calibrate_on_robot(args);
     }

@@ -1,11 +1,13 @@
 //! Fitting ratf to a team's own robot (issue 16): motor identification from open-loop PWM
 //! steps ([`motor_model`], [`motor_fit`], [`motor_csv`]), wheel PI gains from the identified
-//! model ([`pi_tuning`]). Pure: samples and times in, parameters out; the apps
+//! model ([`pi_tuning`]), and the odometry's wheel radius and lx + ly from a drive among
+//! the beacons ([`odometry_fit`]). Pure: samples and times in, parameters out; the apps
 //! (`ratf tune`, `ratf calibrate odometry`) collect the data and write the configuration.
 
 pub mod motor_csv;
 pub mod motor_fit;
 pub mod motor_model;
+pub mod odometry_fit;
 pub mod pi_tuning;
 
 /// Set `[section] key = value` in `file`, a configuration file's table, keeping every other
