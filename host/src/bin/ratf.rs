@@ -100,7 +100,8 @@ enum Command {
 #[derive(Debug, Subcommand)]
 enum TuneCommand {
     /// Identify each wheel motor (gain, time constant, dead zone, delay) from open-loop PWM
-    /// steps: in the simulator (`--sim`) or from a tuning-node log (`--from-csv`).
+    /// steps: on the robot's Mega (`--robot`), in the simulator (`--sim`) or from a
+    /// tuning-node log (`--from-csv`). Ctrl-C stops the wheels at once.
     Motors(ratf_host::apps::tune::cli::MotorsArgs),
     /// PI gains by IMC tuning from the identified model (`[motor]`), with the predicted
     /// 10 rad/s step; `--write FILE` sets the `[mega]` keys.
@@ -437,7 +438,12 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Calibration(args)) => calibration_bench_command(&args)?,
         Command::Calibrate(args) => calibrate_command(&args)?,
         Command::Tune(TuneCommand::Motors(args)) => {
-            ratf_host::apps::tune::cli::motors_command(&args)?
+            let interrupt = if args.robot {
+                quit_on_signals_and_panics("ratf tune motors", 1)
+            } else {
+                ratf_host::devices::Shared::new()
+            };
+            ratf_host::apps::tune::cli::motors_command(&args, &interrupt)?
         }
         Command::Tune(TuneCommand::Gains(args)) => {
             ratf_host::apps::tune::cli::gains_command(&args)?

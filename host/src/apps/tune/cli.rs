@@ -14,7 +14,9 @@ use ratf_core::identification::pi_tuning::TuningGoal;
 
 use super::gains::{self, STEP_RAD_S};
 use super::motors::{self, StepPlan, WheelReport};
+use super::robot::run_on_robot;
 use super::svg::{Panel, time_series};
+use crate::devices::Shared;
 
 /// `ratf tune motors`.
 #[derive(Debug, Args)]
@@ -24,8 +26,15 @@ pub struct MotorsArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Identify the simulated robot's motors (the simulated Mega and motors).
-    #[arg(long, conflicts_with = "from_csv")]
+    #[arg(long, conflicts_with_all = ["from_csv", "robot"])]
     pub sim: bool,
+    /// On the robot's own Mega (`--config` is the robot's file): the wheels off the ground,
+    /// or the robot on the floor with a metre of room around it.
+    #[arg(long, requires = "config", conflicts_with = "from_csv")]
+    pub robot: bool,
+    /// Do not ask before driving (with `--robot`).
+    #[arg(long, requires = "robot")]
+    pub yes: bool,
     /// Simulator seed.
     #[arg(long, default_value_t = 1, requires = "sim")]
     pub seed: u64,
@@ -113,10 +122,45 @@ fn save(file: &toml::Table, path: &Path, what: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `ratf tune motors`.
-pub fn motors_command(args: &MotorsArgs) -> anyhow::Result<()> {
+fn plan_of(args: &MotorsArgs) -> anyhow::Result<StepPlan> {
+    let plan = StepPlan {
+        levels: args.levels.clone(),
+        step_s: args.step_s,
+        rest_s: args.rest_s,
+    };
+    plan.check()?;
+    Ok(plan)
+}
+
+/// `ratf tune motors`; `interrupt` is Ctrl-C's flag (used with `--robot`).
+pub fn motors_command(args: &MotorsArgs, interrupt: &Shared) -> anyhow::Result<()> {
     let (mut config, mut file) = load(args.config.as_deref())?;
-    let (wheels, truth) = if let Some(csv) = &args.from_csv {
+    let (wheels, truth) = if args.robot {
+        let plan = plan_of(args)?;
+        let battery_v = args.battery_v.unwrap_or(config.motor.battery_voltage_v);
+        if !args.yes {
+            eprint!(
+                "The wheels must be off the ground, or the robot on the floor with a metre of \
+                 room around it: it will drive {:.0} s of PWM steps up to {} (v, vn, w, both \
+                 ways). Battery {battery_v:.2} V (measure it; --battery-v). Drive now? [y/N] ",
+                plan.duration_s(),
+                plan.levels.iter().max().copied().unwrap_or(0)
+            );
+            let mut answer = String::new();
+            std::io::stdin().read_line(&mut answer)?;
+            if !matches!(answer.trim(), "y" | "Y" | "yes") {
+                bail!("not driven (answer y to drive)");
+            }
+        }
+        let wheels = run_on_robot(&config, &plan, battery_v, interrupt)?;
+        std::println!(
+            "drove {:.1} s of PWM steps on {} (levels {:?}); battery {battery_v:.2} V",
+            plan.duration_s(),
+            config.link.mega_port,
+            plan.levels
+        );
+        (wheels, None)
+    } else if let Some(csv) = &args.from_csv {
         let text = fs::read_to_string(csv)
             .with_context(|| format!("reading the CSV log {}", csv.display()))?;
         let name = csv.file_name().and_then(|n| n.to_str()).unwrap_or("");
@@ -133,12 +177,7 @@ pub fn motors_command(args: &MotorsArgs) -> anyhow::Result<()> {
         if let Some(world) = args.world {
             config.sim.world = world;
         }
-        let plan = StepPlan {
-            levels: args.levels.clone(),
-            step_s: args.step_s,
-            rest_s: args.rest_s,
-        };
-        plan.check()?;
+        let plan = plan_of(args)?;
         let run = motors::run_in_sim(&config, &plan);
         let mut wheels = run.wheels;
         if let Some(measured) = args.battery_v {
@@ -157,10 +196,7 @@ pub fn motors_command(args: &MotorsArgs) -> anyhow::Result<()> {
         );
         (wheels, Some(run.truth))
     } else {
-        bail!(
-            "give --sim or --from-csv FILE (identification on the robot's own devices is not \
-             built yet: record the steps with the original tuning node and use --from-csv)"
-        );
+        bail!("give --robot (with --config), --sim or --from-csv FILE");
     };
     let fits =
         motors::fit_all(&wheels).map_err(|(wheel, e)| anyhow::anyhow!("wheel {wheel}: {e}"))?;

@@ -6,4 +6,5 @@
 pub mod cli;
 pub mod gains;
 pub mod motors;
+pub mod robot;
 pub mod svg;
