@@ -96,4 +96,19 @@ mod tests {
         assert!((written.mega.kc_v_per_rad_s - gains.kc_v_per_rad_s).abs() < 1e-6);
         assert!((written.mega.dead_zone_v0_v - 0.22).abs() < 1e-6);
     }
+
+    #[test]
+    fn gains_tuned_on_the_simulator_s_identified_motors_meet_the_step_target_on_each_wheel() {
+        use crate::apps::tune::motors::{StepPlan, fit_all, mean_model, run_in_sim};
+        let mut config = Config::default();
+        config.sim.world = ratf_core::config::WorldProfile::Realistic;
+        config.sim.seed = 11;
+        let fits = fit_all(&run_in_sim(&config, &StepPlan::default()).wheels).unwrap();
+        let gains = tune(&config, &mean_model(&fits), &TuningGoal::default());
+        for fit in &fits {
+            let step = predict(&config, &fit.model, &gains, STEP_RAD_S);
+            assert!(step.settling_s.is_some_and(|s| s <= 0.3), "{step:?}");
+            assert!(step.overshoot_pct <= 5.0, "{step:?}");
+        }
+    }
 }
