@@ -152,8 +152,9 @@ struct CalibrateArgs {
 #[derive(Debug, Subcommand)]
 enum CalibrateWhat {
     /// The odometry's wheel radius and lx + ly, in the simulator: the lidar calibrated
-    /// first, then a 67 s drive around machine A with four quarter turns in place, each
-    /// stop's pose fixed from the beacons; `--write FILE` sets the `[robot]` keys.
+    /// first, then a 100 s drive around machine A with four quarter turns in place and the
+    /// loop's left side twice more, each stop's pose fixed from the beacons; `--write FILE`
+    /// sets the `[robot]` keys.
     Odometry(ratf_host::apps::calibrate::odometry_cli::OdometryArgs),
 }
 
