@@ -14,6 +14,7 @@ pub mod config;
 pub mod control;
 pub mod drivers;
 pub mod field;
+pub mod identification;
 pub mod kinematics;
 pub mod localisation;
 pub mod mission;

@@ -13,3 +13,4 @@ pub mod run;
 pub mod scripts;
 pub mod serve_pty;
 pub mod time_split;
+pub mod tune;

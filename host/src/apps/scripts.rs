@@ -123,6 +123,16 @@ impl Builder {
         )
     }
 
+    /// A turn in place by `angle_rad` at `rate_rad_s`, with linear ramps of `ramp_s`.
+    fn turn(&mut self, angle_rad: f64, rate_rad_s: f64, ramp_s: f64) -> &mut Self {
+        let hold_s = angle_rad.abs() / rate_rad_s - ramp_s;
+        self.leg(
+            BodyTwist::new(0.0, 0.0, rate_rad_s * angle_rad.signum()),
+            hold_s,
+            ramp_s,
+        )
+    }
+
     fn pause(&mut self, seconds: f64) -> &mut Self {
         self.time_s += seconds;
         self.key(BodyTwist::default());
@@ -197,6 +207,64 @@ pub fn calibration_drive() -> (Script, Vec<StopWindow>) {
         for _ in 0..2 {
             b.straight(dir_x, dir_y, length / 2.0, speed, ramp)
                 .stop(CALIBRATION_STOP_S, &mut windows);
+        }
+    }
+    (b.build(start), windows)
+}
+
+/// The odometry calibration drive (`ratf calibrate odometry`): the calibration drive's loop
+/// around machine A (straight legs forward, back and sideways, 2.7 m in all, nine stops);
+/// at the stop halfway down its right side, between machines A and B, four quarter turns in
+/// place at 1 rad/s (left, left, right, right) with a stop after each: 2π rad turned, back
+/// to the loop's heading (the turning body sweeps a 0.21 m radius; the stop lies 0.25 m
+/// from machine B's dividers and 0.29 m from machine A's); then up and down the loop's left
+/// side twice more with a stop every 0.355 m: 4.3 m driven forward and back in all, 21
+/// stops, about 100 s.
+pub fn odometry_drive() -> (Script, Vec<StopWindow>) {
+    let (speed, ramp) = (0.2, 0.3);
+    let (height, width) = (0.71, 0.66);
+    let start = Field::competition().start_pose();
+    let corner = Pose2::new(-0.64, -0.42, FRAC_PI_2);
+    let to_corner = start.inverse_transform_point(corner.position());
+    let mut windows = Vec::new();
+    let mut b = Builder::new();
+    b.pause(0.5)
+        .straight(
+            to_corner.x / to_corner.norm(),
+            to_corner.y / to_corner.norm(),
+            to_corner.norm(),
+            0.1,
+            ramp,
+        )
+        .stop(CALIBRATION_STOP_S, &mut windows);
+    for (side, (dir_x, dir_y, length)) in [
+        (1.0, 0.0, height),
+        (0.0, -1.0, width),
+        (-1.0, 0.0, height),
+        (0.0, 1.0, width),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        for half in 0..2 {
+            b.straight(dir_x, dir_y, length / 2.0, speed, ramp)
+                .stop(CALIBRATION_STOP_S, &mut windows);
+            if side == 2 && half == 0 {
+                for sign in [1.0, 1.0, -1.0, -1.0] {
+                    b.turn(sign * FRAC_PI_2, 1.0, ramp)
+                        .stop(CALIBRATION_STOP_S, &mut windows);
+                }
+            }
+        }
+    }
+    // Up and down the loop's left side twice more: the radius rests on the distance
+    // driven straight between beacon fixes.
+    for _ in 0..2 {
+        for dir_x in [1.0, -1.0] {
+            for _ in 0..2 {
+                b.straight(dir_x, 0.0, height / 2.0, speed, ramp)
+                    .stop(CALIBRATION_STOP_S, &mut windows);
+            }
         }
     }
     (b.build(start), windows)

@@ -92,10 +92,27 @@ enum Command {
         On every way out the Mega gets zero references and magnet off first."
     )]
     Calibrate(CalibrateArgs),
+    /// Fit the robot's wheel motors and tune the Mega's wheel PI (README, "Fit your robot").
+    #[command(subcommand)]
+    Tune(TuneCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum TuneCommand {
+    /// Identify each wheel motor (gain, time constant, dead zone, delay) from open-loop PWM
+    /// steps: on the robot's Mega (`--robot`), in the simulator (`--sim`) or from a
+    /// tuning-node log (`--from-csv`). Ctrl-C stops the wheels at once.
+    Motors(ratf_host::apps::tune::cli::MotorsArgs),
+    /// PI gains by IMC tuning from the identified model (`[motor]`), with the predicted
+    /// 10 rad/s step; `--write FILE` sets the `[mega]` keys.
+    Gains(ratf_host::apps::tune::cli::GainsArgs),
 }
 
 #[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true)]
 struct CalibrateArgs {
+    #[command(subcommand)]
+    what: Option<CalibrateWhat>,
     /// Configuration file (defaults: the competition robot): the robot's beliefs before
     /// calibrating, from which the world is drawn.
     #[arg(long, value_name = "FILE")]
@@ -130,6 +147,15 @@ struct CalibrateArgs {
     /// Folder for the drive's recording (with `--robot`).
     #[arg(long, value_name = "DIR", default_value = "out")]
     out: PathBuf,
+}
+
+#[derive(Debug, Subcommand)]
+enum CalibrateWhat {
+    /// The odometry's wheel radius and lx + ly, in the simulator: the lidar calibrated
+    /// first, then a 100 s drive around machine A with four quarter turns in place and the
+    /// loop's left side twice more, each stop's pose fixed from the beacons; `--write FILE`
+    /// sets the `[robot]` keys.
+    Odometry(ratf_host::apps::calibrate::odometry_cli::OdometryArgs),
 }
 
 #[derive(Debug, Args)]
@@ -432,6 +458,17 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
         Command::Bench(BenchCommand::Calibration(args)) => calibration_bench_command(&args)?,
         Command::Calibrate(args) => calibrate_command(&args)?,
+        Command::Tune(TuneCommand::Motors(args)) => {
+            let interrupt = if args.robot {
+                quit_on_signals_and_panics("ratf tune motors", 1)
+            } else {
+                ratf_host::devices::Shared::new()
+            };
+            ratf_host::apps::tune::cli::motors_command(&args, &interrupt)?
+        }
+        Command::Tune(TuneCommand::Gains(args)) => {
+            ratf_host::apps::tune::cli::gains_command(&args)?
+        }
         Command::Replay(args) => replay_command(&args)?,
         Command::Config(args) => {
             if let Some(path) = args.check {
@@ -1414,6 +1451,9 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
 
 fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     use ratf_host::apps::calibrate;
+    if let Some(CalibrateWhat::Odometry(odometry)) = &args.what {
+        return calibrate::odometry_cli::odometry_command(odometry);
+    }
     if args.robot {
         calibrate_on_robot(args);
     }

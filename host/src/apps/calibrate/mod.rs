@@ -10,6 +10,8 @@
 use serde::Serialize;
 
 pub mod drive;
+pub mod odometry;
+pub mod odometry_cli;
 pub mod robot;
 
 use crate::apps::scripts::calibration_drive;

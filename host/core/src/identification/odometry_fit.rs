@@ -1,0 +1,331 @@
+//! The odometry's wheel radius and lx + ly from a drive among the beacons with stops
+//! (`ratf calibrate odometry`).
+//!
+//! At each stop the robot's pose is fixed from the beacons alone ([`beacon_fix`]: the
+//! stop's averaged sightings, the lidar calibrated first by `ratf calibrate`), independently
+//! of the wheels. Between consecutive stops, the wheel odometry's motion (in the first
+//! stop's frame) and the beacons' are compared. With wheel radius `a·r` and `lx + ly =
+//! b·L` the true motion of a leg that does not turn is `a` times the odometry's forward part
+//! (the strafe part has its own factor, the rollers' lateral travel), and a turn in place is
+//! `a/b` times the odometry's angle; each factor is the least-squares ratio over the legs.
+//! Why: the mean wheel radius scales every distance the odometry reports and lx + ly every
+//! angle (real-world-errors.md: −0.3 % and +1.1 % on the 5dpo robot).
+
+use crate::calibration::Stop;
+use crate::config::Config;
+use crate::field::Field;
+use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+
+/// A leg turning less than this (rad) counts as straight.
+pub const STRAIGHT_LEG_MAX_TURN_RAD: f64 = 0.05;
+/// A leg turning more than this (rad) and moving less than [`TURN_MAX_SHIFT_M`] is a turn.
+pub const TURN_MIN_RAD: f64 = 0.5;
+/// Largest shift of a turn in place, m.
+pub const TURN_MAX_SHIFT_M: f64 = 0.05;
+/// Beacons a fix needs.
+pub const MIN_BEACONS: usize = 3;
+
+/// The pose of the robot at `stop` from its beacon sightings alone, in the beliefs of
+/// `config` (range scale and offset, lidar mount) and `field` (the beacons), by
+/// Gauss–Newton from the localiser's estimate; `None` with fewer than [`MIN_BEACONS`]
+/// beacons or no convergence.
+pub fn beacon_fix(stop: &Stop, config: &Config, field: &Field) -> Option<Pose2> {
+    if stop.sightings.len() < MIN_BEACONS {
+        return None;
+    }
+    let mount = config.robot.lidar_mount();
+    let beacons = field.beacons();
+    let radius = beacons.first()?.circle.radius_m;
+    let (scale, offset) = (config.lidar.range_scale, config.lidar.range_offset_m);
+    let residuals = |lidar: Pose2| -> Option<Vec<f64>> {
+        let mut r = Vec::with_capacity(2 * stop.sightings.len());
+        for s in &stop.sightings {
+            let centre: Vec2 = beacons.get(s.beacon)?.circle.center;
+            let local = lidar.inverse_transform_point(centre);
+            let range = scale * (local.norm() - radius) + offset + radius;
+            r.push((s.range_m - range) / s.range_std_m);
+            r.push(wrap_angle(s.bearing_rad - local.angle()) / s.bearing_std_rad);
+        }
+        Some(r)
+    };
+    let mut lidar = stop.estimate.compose(mount);
+    for _ in 0..20 {
+        let r0 = residuals(lidar)?;
+        let h = 1e-6;
+        let columns: Vec<Vec<f64>> = (0..3)
+            .map(|i| {
+                let mut d = [0.0; 3];
+                d[i] = h;
+                let moved = Pose2::new(lidar.x + d[0], lidar.y + d[1], lidar.yaw_rad + d[2]);
+                residuals(moved).map(|r| r.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect())
+            })
+            .collect::<Option<_>>()?;
+        // Normal equations JᵀJ δ = −Jᵀr.
+        let mut jtj = [[0.0; 3]; 3];
+        let mut jtr = [0.0; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                jtj[i][j] = columns[i].iter().zip(&columns[j]).map(|(a, b)| a * b).sum();
+            }
+            jtr[i] = columns[i].iter().zip(&r0).map(|(a, b)| a * b).sum();
+        }
+        let delta = solve3(jtj, jtr.map(|v| -v))?;
+        lidar = Pose2::new(
+            lidar.x + delta[0],
+            lidar.y + delta[1],
+            wrap_angle(lidar.yaw_rad + delta[2]),
+        );
+        if delta.iter().all(|d| d.abs() < 1e-9) {
+            break;
+        }
+    }
+    let robot = lidar.compose(mount.inverse());
+    robot.is_finite().then_some(robot)
+}
+
+/// `A x = b` for a 3 × 3 system by Cramer's rule; `None` when singular.
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let det = |m: [[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(a);
+    if d.abs() < 1e-300 || !d.is_finite() {
+        return None;
+    }
+    let mut x = [0.0; 3];
+    for (i, xi) in x.iter_mut().enumerate() {
+        let mut m = a;
+        for row in 0..3 {
+            m[row][i] = b[row];
+        }
+        *xi = det(m) / d;
+    }
+    Some(x)
+}
+
+/// One leg between two stops: the odometry's motion and the beacons', each in the first
+/// stop's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Leg {
+    /// What the wheels say.
+    pub odometry: Pose2,
+    /// What the beacons say.
+    pub beacons: Pose2,
+}
+
+/// The legs between consecutive stops that both have a beacon fix.
+pub fn legs(stops: &[Stop], fixes: &[Option<Pose2>]) -> Vec<Leg> {
+    stops
+        .windows(2)
+        .zip(fixes.windows(2))
+        .filter_map(|(s, f)| {
+            Some(Leg {
+                odometry: s[0].odometry.relative(s[1].odometry),
+                beacons: f[0]?.relative(f[1]?),
+            })
+        })
+        .collect()
+}
+
+/// The fitted factors and the configuration values they give.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct OdometryFit {
+    /// True mean wheel radius over the believed one.
+    pub radius_factor: f64,
+    /// True lx + ly over the believed.
+    pub lx_plus_ly_factor: f64,
+    /// Strafe travel over the (radius-corrected) odometry's: the rollers' lateral slip,
+    /// reported, not written (the odometry has no key for it).
+    pub strafe_factor: f64,
+    /// The wheel diameter to write, m (`robot.wheel_diameter_m`).
+    pub wheel_diameter_m: f64,
+    /// lx + ly to write, m (front-back and left-right distances scaled together).
+    pub lx_plus_ly_m: f64,
+    /// Distance driven straight over the legs used, m (odometry).
+    pub straight_m: f64,
+    /// Angle turned in place over the legs used, rad (odometry).
+    pub turned_rad: f64,
+    /// RMS of the legs' distance residuals after the fit, m.
+    pub residual_m: f64,
+}
+
+/// Why the legs cannot be fitted.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum OdometryFitError {
+    /// Not enough driving straight.
+    #[error(
+        "only {0:.2} m driven straight between stops with beacon fixes (0.5 m needed): drive \
+         longer legs, with three or more beacons in view at each stop"
+    )]
+    TooLittleStraight(f64),
+    /// Not enough turning.
+    #[error(
+        "only {0:.2} rad turned in place between stops with beacon fixes (1.5 rad needed): \
+         add turns in place"
+    )]
+    TooLittleTurning(f64),
+}
+
+/// Fit the factors to `legs`, for a robot that believes `config`.
+pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitError> {
+    let (mut xx, mut xt) = (0.0, 0.0);
+    let (mut yy, mut yt) = (0.0, 0.0);
+    let (mut tt, mut tb) = (0.0, 0.0);
+    let (mut straight_m, mut turned_rad) = (0.0, 0.0);
+    for leg in legs {
+        let (o, b) = (leg.odometry, leg.beacons);
+        let shift = o.position().norm();
+        if o.yaw_rad.abs() < STRAIGHT_LEG_MAX_TURN_RAD {
+            xx += o.x * o.x;
+            xt += o.x * b.x;
+            yy += o.y * o.y;
+            yt += o.y * b.y;
+            straight_m += o.x.abs();
+        } else if o.yaw_rad.abs() > TURN_MIN_RAD && shift < TURN_MAX_SHIFT_M {
+            tt += o.yaw_rad * o.yaw_rad;
+            tb += o.yaw_rad * b.yaw_rad;
+            turned_rad += o.yaw_rad.abs();
+        }
+    }
+    if straight_m < 0.5 {
+        return Err(OdometryFitError::TooLittleStraight(straight_m));
+    }
+    if turned_rad < 1.5 {
+        return Err(OdometryFitError::TooLittleTurning(turned_rad));
+    }
+    let radius_factor = xt / xx;
+    let strafe_factor = if yy > 0.0 {
+        yt / yy / radius_factor
+    } else {
+        1.0
+    };
+    let turn_ratio = tb / tt;
+    let lx_plus_ly_factor = radius_factor / turn_ratio;
+    let residuals: Vec<f64> = legs
+        .iter()
+        .filter(|l| l.odometry.yaw_rad.abs() < STRAIGHT_LEG_MAX_TURN_RAD)
+        .map(|l| {
+            let dx = l.beacons.x - radius_factor * l.odometry.x;
+            let dy = l.beacons.y - radius_factor * strafe_factor * l.odometry.y;
+            dx.hypot(dy)
+        })
+        .collect();
+    let residual_m =
+        (residuals.iter().map(|r| r * r).sum::<f64>() / residuals.len().max(1) as f64).sqrt();
+    Ok(OdometryFit {
+        radius_factor,
+        lx_plus_ly_factor,
+        strafe_factor,
+        wheel_diameter_m: config.robot.wheel_diameter_m * radius_factor,
+        lx_plus_ly_m: config.robot.half_wheelbase_sum_m() * lx_plus_ly_factor,
+        straight_m,
+        turned_rad,
+        residual_m,
+    })
+}
+
+impl OdometryFit {
+    /// Write the fit into `config`: the wheel diameter, and both wheel distances scaled
+    /// together (their ratio is the drawing's; only their sum matters to the odometry).
+    pub fn apply(&self, config: &mut Config) {
+        let robot = &mut config.robot;
+        robot.wheel_diameter_m = self.wheel_diameter_m;
+        robot.front_back_wheel_distance_m *= self.lx_plus_ly_factor;
+        robot.left_right_wheel_distance_m *= self.lx_plus_ly_factor;
+    }
+
+    /// Set the keys [`OdometryFit::apply`] changes in `file`, a configuration file's table
+    /// whose values are `config`.
+    pub fn write_into(&self, config: &Config, file: &mut toml::Table) {
+        let mut fitted = config.clone();
+        self.apply(&mut fitted);
+        let r = &fitted.robot;
+        for (key, value) in [
+            ("wheel_diameter_m", r.wheel_diameter_m),
+            ("front_back_wheel_distance_m", r.front_back_wheel_distance_m),
+            ("left_right_wheel_distance_m", r.left_right_wheel_distance_m),
+        ] {
+            super::set_config_key(file, "robot", key, value.into());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::Sighting;
+
+    fn leg(odo: Pose2, a: f64, strafe: f64, turn: f64) -> Leg {
+        Leg {
+            odometry: odo,
+            beacons: Pose2::new(a * odo.x, a * strafe * odo.y, turn * odo.yaw_rad),
+        }
+    }
+
+    #[test]
+    fn recovers_known_factors_from_exact_legs() {
+        let config = Config::default();
+        let (a, strafe, b) = (0.997, 0.93, 1.011);
+        let legs = [
+            leg(Pose2::new(0.35, 0.001, 0.002), a, strafe, a / b),
+            leg(Pose2::new(-0.35, -0.002, -0.001), a, strafe, a / b),
+            leg(Pose2::new(0.0, 0.33, 0.0), a, strafe, a / b),
+            leg(Pose2::new(0.001, 0.0, 1.57), a, strafe, a / b),
+            leg(Pose2::new(0.0, 0.001, -1.57), a, strafe, a / b),
+        ];
+        let fit = fit(&legs, &config).unwrap();
+        assert!((fit.radius_factor - a).abs() < 1e-4, "{fit:?}");
+        assert!((fit.lx_plus_ly_factor - b).abs() < 1e-3, "{fit:?}");
+        assert!((fit.strafe_factor - strafe).abs() < 1e-2, "{fit:?}");
+        let mut fitted = config.clone();
+        fit.apply(&mut fitted);
+        let sum = fitted.robot.half_wheelbase_sum_m();
+        assert!((sum - config.robot.half_wheelbase_sum_m() * b).abs() < 1e-3);
+    }
+
+    #[test]
+    fn refuses_a_drive_without_turns() {
+        let legs = [leg(Pose2::new(0.6, 0.0, 0.0), 1.0, 1.0, 1.0)];
+        assert!(matches!(
+            fit(&legs, &Config::default()),
+            Err(OdometryFitError::TooLittleTurning(_))
+        ));
+    }
+
+    #[test]
+    fn a_beacon_fix_finds_the_pose_the_sightings_were_made_from() {
+        let config = Config::default();
+        let field = config.field.field();
+        let truth = Pose2::new(-0.3, 0.2, 1.2);
+        let lidar = truth.compose(config.robot.lidar_mount());
+        let sightings = field
+            .beacons()
+            .iter()
+            .enumerate()
+            .map(|(k, b)| {
+                let local = lidar.inverse_transform_point(b.circle.center);
+                Sighting {
+                    beacon: k,
+                    range_m: local.norm(),
+                    bearing_rad: local.angle(),
+                    range_std_m: 0.002,
+                    bearing_std_rad: 0.001,
+                    scans: 10,
+                }
+            })
+            .collect();
+        let stop = Stop {
+            odometry: Pose2::default(),
+            estimate: Pose2::new(-0.25, 0.25, 1.1),
+            sightings,
+        };
+        let fix = beacon_fix(&stop, &config, &field).unwrap();
+        assert!(fix.position().distance(truth.position()) < 1e-6, "{fix:?}");
+        assert!(
+            wrap_angle(fix.yaw_rad - truth.yaw_rad).abs() < 1e-6,
+            "{fix:?}"
+        );
+    }
+}
