@@ -90,7 +90,7 @@ pub fn run_on_robot(
     let clock = Clock::start();
     let shared = Shared::new();
     let (tx, rx) = inbox(&shared);
-    let mega = MegaHandle::new(settings.link);
+    let mega = MegaHandle::new(settings.link, settings.controller);
     let thread = mega_device::spawn(
         settings.clone(),
         port,
