@@ -20,6 +20,7 @@ mod event;
 mod input;
 mod output;
 mod run;
+mod silence;
 
 pub use self::brain::{Brain, Phase};
 pub use self::bringup::{BiasOutcome, GYRO_BIAS_SAMPLES, GYRO_SETTLE_US, GyroBiasStartup};
@@ -28,3 +29,4 @@ pub use self::event::{Event, slot_name};
 pub use self::input::{DeviceKind, Input, MANUAL_DEADMAN_US, OperatorCommand, Stamped, Timestamp};
 pub use self::output::{LidarCommand, Outputs, WheelCommand};
 pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};
+pub use self::silence::{LIDAR_SILENCE_REVOLUTIONS, MEGA_SILENCE_PERIODS, SilenceGuard};
