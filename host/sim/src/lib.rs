@@ -7,6 +7,7 @@
 
 pub mod body;
 pub mod devices;
+pub mod faults;
 pub mod harness;
 pub mod imu;
 pub mod lidar;

@@ -282,6 +282,15 @@ impl Shop {
         events
     }
 
+    /// Fault injection: put part `part` on the floor at `world` (knocked out of its slot, or
+    /// slipped off the magnet); a machine working on it lets it go.
+    pub fn put_on_floor(&mut self, part: usize, world: Pose2) {
+        if let Some(p) = self.parts.get_mut(part) {
+            p.place = PartPlace::Floor(world);
+            self.processing.retain(|w| w.part != part);
+        }
+    }
+
     /// The slot a part standing at `world` would be in (between its dividers, plate facing
     /// the slot's way), if any.
     pub fn slot_at(&self, world: Pose2) -> Option<&Slot> {

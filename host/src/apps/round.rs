@@ -23,6 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::fault_round::{AFTER_STOP_FAULT_US, FaultOutcome, RoundFaults};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -36,6 +37,7 @@ use ratf_core::runtime::{
     Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
 };
 use ratf_sim::devices::SimDevices;
+use ratf_sim::faults::FaultPlan;
 use ratf_sim::parts::{PartEvent, PartPlace};
 use ratf_sim::referee::{MockError, MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::truth::WorldTruth;
@@ -220,6 +222,7 @@ struct RoundDevices {
     ticked: bool,
     skipped: u32,
     events: Vec<RoundEvent>,
+    faults: Option<RoundFaults>,
 }
 
 impl RoundDevices {
@@ -274,6 +277,9 @@ impl RoundDevices {
             let _ = self.server.referee_mut().take(slot, now_us);
             self.server_removes = None;
         }
+        if let Some(faults) = &mut self.faults {
+            faults.before_step(&mut self.sim);
+        }
     }
 }
 
@@ -285,6 +291,14 @@ impl Devices for RoundDevices {
             return Ok(Some(input));
         }
         loop {
+            if let Some(datagram) = self
+                .faults
+                .as_mut()
+                .and_then(|f| f.late_answer(self.sim.now_us()))
+            {
+                let time = Timestamp::from_us(self.sim.now_us());
+                return Ok(Some(Stamped::new(time, Input::Referee { datagram })));
+            }
             if let Some(input) = self.sim.pop_input() {
                 if input.input == Input::HostTick {
                     self.ticked = true;
@@ -311,6 +325,9 @@ impl Devices for RoundDevices {
 
     fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), RoundError> {
         self.sim.apply_outputs(outputs);
+        if let Some(faults) = &mut self.faults {
+            faults.watch(input.time.as_us(), outputs);
+        }
         for event in &outputs.events {
             if matches!(event, Event::Skipped { .. }) {
                 self.skipped += 1;
@@ -331,8 +348,14 @@ impl Devices for RoundDevices {
                     .map_err(RoundError::Server)?;
             }
             for datagram in self.link.receive() {
-                self.queued
-                    .push_back(Stamped::new(input.time, Input::Referee { datagram }));
+                let delivered = match &mut self.faults {
+                    Some(faults) => faults.answer(input.time.as_us(), datagram),
+                    None => vec![datagram],
+                };
+                for datagram in delivered {
+                    self.queued
+                        .push_back(Stamped::new(input.time, Input::Referee { datagram }));
+                }
             }
         }
         Ok(())
@@ -357,8 +380,22 @@ pub fn run_in_world(
     robot: &Config,
     options: &RoundOptions,
     taps: &mut [&mut dyn Tap],
-    mut on_event: impl FnMut(&RoundEvent),
+    on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
+    run_faulted(world, robot, options, None, taps, on_event).map(|(report, _)| report)
+}
+
+/// [`run_in_world`] with the faults of `plan` injected into the world, its devices and the
+/// server's answers (`None`: none); also what the faults did. After a fault that must stop
+/// the robot the round ends [`AFTER_STOP_FAULT_US`] later.
+pub fn run_faulted(
+    world: &Config,
+    robot: &Config,
+    options: &RoundOptions,
+    plan: Option<FaultPlan>,
+    taps: &mut [&mut dyn Tap],
+    mut on_event: impl FnMut(&RoundEvent),
+) -> Result<(RoundReport, FaultOutcome), RoundError> {
     let RoundOptions {
         round,
         seed,
@@ -405,12 +442,19 @@ pub fn run_in_world(
         ticked: false,
         skipped: 0,
         events: Vec::new(),
+        faults: plan.map(|plan| RoundFaults::new(plan, &robot_config, scenario.clutter.clone())),
     };
     let mut core = Core::new(&robot_config, scenario.start_pose)?;
+    let limit_us = devices
+        .faults
+        .as_ref()
+        .and_then(|f| f.plan().first_unrecoverable())
+        .map_or((ROUND_LIMIT_S * 1e6) as u64, |e| {
+            e.start_us.saturating_add(AFTER_STOP_FAULT_US)
+        });
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut last_batches = 0;
-    let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
     let mut finished_at_us: Option<u64> = None;
     let summary = run(&mut core, &mut devices, taps, |core, devices| {
         for event in devices.events.drain(..) {
@@ -483,7 +527,12 @@ pub fn run_in_world(
         })
         .collect();
     let started_s = core.brain().started_at_us().map(|us| us as f64 * 1e-6);
-    Ok(RoundReport {
+    let outcome = devices
+        .faults
+        .as_ref()
+        .map(RoundFaults::outcome)
+        .unwrap_or_default();
+    let report = RoundReport {
         final_parts,
         round,
         seed,
@@ -500,7 +549,8 @@ pub fn run_in_world(
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
-    })
+    };
+    Ok((report, outcome))
 }
 
 /// Run a round and record it to `path` (see [`crate::recording`]); `on_event` hears the
