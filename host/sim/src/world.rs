@@ -384,6 +384,11 @@ impl World {
         self.scene = LidarScene::new(&self.field, clutter, height);
     }
 
+    /// What the lidar can see now (the field and the clutter, a walking person included).
+    pub fn lidar_scene(&self) -> &LidarScene {
+        &self.scene
+    }
+
     /// The lidar, to inject faults (e.g. switch it off for a while).
     pub fn lidar_mut(&mut self) -> &mut SimLidar {
         &mut self.lidar

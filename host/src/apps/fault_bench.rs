@@ -88,6 +88,9 @@ pub struct FaultRow {
     pub max_time_lost_s: f64,
     /// Collisions over all runs.
     pub collisions: u32,
+    /// Collisions over the fault-free runs of the same seeds and rounds (the world's own,
+    /// without the fault).
+    pub fault_free_collisions: u32,
     /// Actions given up over all runs.
     pub given_up: u32,
     /// Host ticks that drove (wheels non-zero or magnet on) later than 150 ms after a fault
@@ -128,6 +131,7 @@ pub fn bench(
             mean_time_lost_s: 0.0,
             max_time_lost_s: 0.0,
             collisions: 0,
+            fault_free_collisions: 0,
             given_up: 0,
             unsafe_events: 0,
             max_stop_ms: None,
@@ -157,6 +161,7 @@ pub fn bench(
                 row.injected += u32::from(happened);
                 row.mean_points += f64::from(report.points);
                 row.collisions += report.collisions;
+                row.fault_free_collisions += base.collisions;
                 row.given_up += report.timeouts;
                 row.unsafe_events += outcome.unsafe_ticks;
                 if let Some(stop_us) = outcome.stop_after_fault_us {

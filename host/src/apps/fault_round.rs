@@ -149,3 +149,84 @@ impl RoundFaults {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::apps::round::{RoundOptions, run_faulted};
+    use ratf_core::config::{Policy, WorldProfile};
+    use ratf_sim::faults::FaultEvent;
+
+    fn realistic() -> Config {
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Realistic;
+        config
+    }
+
+    fn one(kind: FaultKind, start_s: f64, duration_s: Option<f64>) -> FaultPlan {
+        let start_us = (start_s * 1e6) as u64;
+        FaultPlan {
+            events: vec![FaultEvent {
+                kind,
+                start_us,
+                end_us: duration_s.map_or(u64::MAX, |d| start_us + (d * 1e6) as u64),
+                seed: 1,
+            }],
+        }
+    }
+
+    /// Issue 17's safety target, at several instants of a realistic round 1 (seed 1): a lidar
+    /// or a Mega gone for good stops the wheels and the magnet within 150 ms of the fault
+    /// becoming knowable, and they stay stopped.
+    #[test]
+    fn a_lidar_or_mega_gone_for_good_stops_the_robot_and_the_magnet() {
+        let config = realistic();
+        let options = RoundOptions::new(1, 1, Policy::Ours);
+        for kind in [FaultKind::LidarGone, FaultKind::MegaGone] {
+            for start_s in [6.0, 13.3, 21.7] {
+                let plan = one(kind, start_s, None);
+                let (report, outcome) =
+                    run_faulted(&config, &config, &options, Some(plan), &mut [], |_| {}).unwrap();
+                assert_eq!(outcome.injected, 1);
+                assert_eq!(
+                    outcome.unsafe_ticks, 0,
+                    "{kind} at {start_s} s: {outcome:?}"
+                );
+                let grace_ms = if kind == FaultKind::LidarGone {
+                    286
+                } else {
+                    60
+                };
+                let stop_ms = outcome.stop_after_fault_us.unwrap() / 1_000;
+                assert!(
+                    stop_ms <= grace_ms + 150,
+                    "{kind} at {start_s} s: {stop_ms} ms"
+                );
+                assert!(report.points < 4, "the round cannot go on");
+            }
+        }
+    }
+
+    /// Recoverable faults at seed 1 of round 1: the robot still scores fully.
+    #[test]
+    fn through_a_lidar_dropout_a_mega_reset_or_a_silent_server_round_1_still_scores_fully() {
+        let config = realistic();
+        let options = RoundOptions::new(1, 1, Policy::Ours);
+        for (kind, duration_s) in [
+            (FaultKind::LidarDropout, 3.0),
+            (FaultKind::MegaReset, 0.5),
+            (FaultKind::ServerSilent, 5.0),
+            (FaultKind::ImuFailure, 30.0),
+        ] {
+            let plan = one(kind, 8.0, Some(duration_s));
+            let (report, outcome) =
+                run_faulted(&config, &config, &options, Some(plan), &mut [], |_| {}).unwrap();
+            assert_eq!(outcome.planned, 1);
+            assert_eq!(
+                (report.points, report.outgoing, report.timeouts),
+                (4, 4, 0),
+                "{kind}: {report:?}"
+            );
+        }
+    }
+}

@@ -1196,7 +1196,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
         );
     })?;
     println!(
-        "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>6} {:>6} {:>6} {:>7}",
+        "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>7} {:>7} {:>6} {:>7}",
         "fault",
         "recov",
         "full score",
@@ -1215,7 +1215,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             .map(|f| format!("{:.0}", f * 100.0))
             .join("/");
         println!(
-            "{:<17} {:<5} {:>10.0}% {:>14} {:>6.2} {:>8} {:>8.1}s {:>6} {:>7} {:>6} {:>7}",
+            "{:<17} {:<5} {:>10.0}% {:>14} {:>6.2} {:>8} {:>8.1}s {:>7} {:>7} {:>6} {:>7}",
             r.fault,
             if r.recoverable { "yes" } else { "no" },
             r.full_score_rate * 100.0,
@@ -1223,7 +1223,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             r.mean_points,
             format!("{}/{}", r.injected, r.runs),
             r.mean_time_lost_s,
-            r.collisions,
+            format!("{}/{}", r.collisions, r.fault_free_collisions),
             r.given_up,
             r.unsafe_events,
             r.max_stop_ms
@@ -1232,7 +1232,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
     }
     println!(
         "time lost: mean against the fault-free run of the same seed, over runs where both \
-         scored fully; unsafe: host ticks driving (wheels or magnet) more than 150 ms after \
+         scored fully; coll.: collisions with the fault / in the fault-free runs; unsafe: host ticks driving (wheels or magnet) more than 150 ms after \
          a stop fault became knowable (2 lidar revolutions, 3 Mega periods); stop ms: from \
          the fault itself to the last driving tick, worst run; {:.1} s wall",
         started.elapsed().as_secs_f64()
