@@ -10,9 +10,13 @@
 use serde::Serialize;
 
 use ratf_core::config::{Config, Policy};
+use ratf_core::field::Field;
+use ratf_core::runtime::Event;
 use ratf_sim::faults::{FaultKind, FaultPlan};
 
-use super::round::{RoundError, RoundOptions, RoundReport, START_DELAY_S, full_score, run_faulted};
+use super::round::{
+    RoundError, RoundEvent, RoundOptions, RoundReport, START_DELAY_S, full_score, run_faulted,
+};
 
 /// How many recoverable kinds the mixed runs draw.
 pub const MIXED_KINDS: usize = 3;
@@ -105,8 +109,9 @@ pub struct FaultRow {
 pub enum FaultProgress<'a> {
     /// A fault-free run.
     Baseline(&'a RoundReport),
-    /// A faulted run, with its row's name.
-    Faulted(&'static str, &'a RoundReport),
+    /// A faulted run: its row's name, the report, and what happened in order (the faults
+    /// with their times, then the robot's events, collisions and points, one line each).
+    Faulted(&'static str, &'a RoundReport, &'a [String]),
 }
 
 /// Every row of `injections` over rounds 1–3 and `seeds`, our policy, in the world of
@@ -151,9 +156,26 @@ pub fn bench(
             runs_by_round[usize::from(round - 1)] += 1;
             for (k, injection) in injections.iter().enumerate() {
                 let plan = injection.plan(seed, start_us..end_us.max(start_us + 1));
+                let mut story: Vec<String> = plan
+                    .events
+                    .iter()
+                    .map(|e| {
+                        let end = if e.end_us == u64::MAX {
+                            "for good".to_owned()
+                        } else {
+                            format!("to {:.2} s", e.end_us as f64 * 1e-6)
+                        };
+                        format!("{:.2} s: fault {} {end}", e.start_us as f64 * 1e-6, e.kind)
+                    })
+                    .collect();
+                let field = Field::competition();
                 let (report, outcome) =
-                    run_faulted(config, config, &options, Some(plan), &mut [], |_| {})?;
-                on_progress(FaultProgress::Faulted(injection.name(), &report));
+                    run_faulted(config, config, &options, Some(plan), &mut [], |event| {
+                        if let Some(line) = story_line(&field, event) {
+                            story.push(line);
+                        }
+                    })?;
+                on_progress(FaultProgress::Faulted(injection.name(), &report, &story));
                 let row = &mut rows[k];
                 let full = is_full(&report);
                 let happened = outcome.injected > 0;
@@ -192,6 +214,42 @@ pub fn bench(
         row.mean_time_lost_s /= f64::from(timed[k].max(1));
     }
     Ok(rows)
+}
+
+/// One line of a faulted run's story, for what a team reads when a run fails.
+fn story_line(field: &Field, event: &RoundEvent) -> Option<String> {
+    match event {
+        RoundEvent::Core { time, event } => match event {
+            Event::ActionStarted { .. }
+            | Event::Picked { .. }
+            | Event::Placed { .. }
+            | Event::Skipped { .. }
+            | Event::ServerDisagrees { .. }
+            | Event::RefereeFailed { .. }
+            | Event::DeviceSilent { .. }
+            | Event::DeviceBack { .. }
+            | Event::DeviceFault { .. } => Some(format!(
+                "{:.2} s: {}",
+                time.as_secs_f64(),
+                event.describe(field)
+            )),
+            _ => None,
+        },
+        RoundEvent::Collision(c) => Some(format!(
+            "{:.2} s: collision with {:?} at ({:.3}, {:.3})",
+            c.time_us as f64 * 1e-6,
+            c.with,
+            c.pose.x,
+            c.pose.y
+        )),
+        RoundEvent::Points {
+            time, slot, total, ..
+        } => Some(format!(
+            "{:.2} s: scored at waypoint {slot}, {total} in all",
+            time.as_secs_f64()
+        )),
+        RoundEvent::Tick { .. } => None,
+    }
 }
 
 /// Full points and every part out.

@@ -221,6 +221,9 @@ struct FaultsBenchArgs {
     /// Only these faults (names as printed, comma-separated; `mixed` for the mix).
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
+    /// Also print, for each faulted run short of full score, what happened in order.
+    #[arg(long)]
+    verbose: bool,
 }
 
 #[derive(Debug, Args)]
@@ -1186,14 +1189,20 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
     println!("world: {}; our policy; rounds 1–3", config.sim.world);
     println!("seeds {} to {}", seeds.start(), seeds.end());
     let rows = fault_bench::bench(&config, seeds.clone(), &injections, |p| {
-        let (what, r) = match p {
-            FaultProgress::Baseline(r) => ("no fault", r),
-            FaultProgress::Faulted(name, r) => (name, r),
+        let (what, r, story) = match p {
+            FaultProgress::Baseline(r) => ("no fault", r, &[][..]),
+            FaultProgress::Faulted(name, r, story) => (name, r, story),
         };
         eprintln!(
             "round {} seed {} {what}: {} points, {} out, {:.1} s, {} collisions, {} given up",
             r.round, r.seed, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
         );
+        let full = r.points == ratf_host::apps::round::full_score(r.round) && r.outgoing == 4;
+        if args.verbose && !full {
+            for line in story {
+                eprintln!("    {line}");
+            }
+        }
     })?;
     println!(
         "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>7} {:>7} {:>6} {:>7}",
