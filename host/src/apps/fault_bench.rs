@@ -14,6 +14,7 @@ use ratf_core::field::Field;
 use ratf_core::runtime::Event;
 use ratf_sim::faults::{FaultKind, FaultPlan};
 
+use super::calibrate;
 use super::round::{
     RoundError, RoundEvent, RoundOptions, RoundReport, START_DELAY_S, full_score, run_faulted,
 };
@@ -104,6 +105,16 @@ pub struct FaultRow {
     pub max_stop_ms: Option<f64>,
 }
 
+/// The bench's rows and the fault-free runs' own figures.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FaultBench {
+    /// One row per fault (and the mix).
+    pub rows: Vec<FaultRow>,
+    /// Fraction of the fault-free runs (every round and seed) with full score: the ceiling
+    /// the world itself sets.
+    pub fault_free_full_score_rate: f64,
+}
+
 /// What the bench tells as it goes.
 #[derive(Debug)]
 pub enum FaultProgress<'a> {
@@ -115,13 +126,15 @@ pub enum FaultProgress<'a> {
 }
 
 /// Every row of `injections` over rounds 1–3 and `seeds`, our policy, in the world of
-/// `config`.
+/// `config`. With `calibrated`, each seed's robot first believes its calibration
+/// ([`calibrate::beliefs`]; a refused calibration keeps the configuration as written).
 pub fn bench(
     config: &Config,
     seeds: std::ops::RangeInclusive<u64>,
     injections: &[Injection],
+    calibrated: bool,
     mut on_progress: impl FnMut(FaultProgress<'_>),
-) -> Result<Vec<FaultRow>, RoundError> {
+) -> Result<FaultBench, RoundError> {
     let mut rows: Vec<FaultRow> = injections
         .iter()
         .map(|i| FaultRow {
@@ -145,12 +158,22 @@ pub fn bench(
     let mut full_by_round = vec![[0u32; 3]; rows.len()];
     let mut runs_by_round = [0u32; 3];
     let mut timed = vec![0u32; rows.len()];
+    let (mut base_runs, mut base_fulls) = (0u32, 0u32);
+    let mut beliefs = std::collections::BTreeMap::new();
+    for seed in seeds.clone() {
+        let mut seeded = config.clone();
+        seeded.sim.seed = seed;
+        beliefs.insert(seed, calibrate::beliefs(&seeded, calibrated)?.0);
+    }
     for round in 1..=3u8 {
         for seed in seeds.clone() {
+            let robot = &beliefs[&seed];
             let options = RoundOptions::new(round, seed, Policy::Ours);
-            let (base, _) = run_faulted(config, config, &options, None, &mut [], |_| {})?;
+            let (base, _) = run_faulted(config, robot, &options, None, &mut [], |_| {})?;
             on_progress(FaultProgress::Baseline(&base));
             let base_full = is_full(&base);
+            base_runs += 1;
+            base_fulls += u32::from(base_full);
             let start_us = ((START_DELAY_S + 1.0) * 1e6) as u64;
             let end_us = ((START_DELAY_S + 0.9 * base.time_s.max(2.0)) * 1e6) as u64;
             runs_by_round[usize::from(round - 1)] += 1;
@@ -170,7 +193,7 @@ pub fn bench(
                     .collect();
                 let field = Field::competition();
                 let (report, outcome) =
-                    run_faulted(config, config, &options, Some(plan), &mut [], |event| {
+                    run_faulted(config, robot, &options, Some(plan), &mut [], |event| {
                         if let Some(line) = story_line(&field, event) {
                             story.push(line);
                         }
@@ -213,7 +236,10 @@ pub fn bench(
         row.mean_points /= runs;
         row.mean_time_lost_s /= f64::from(timed[k].max(1));
     }
-    Ok(rows)
+    Ok(FaultBench {
+        rows,
+        fault_free_full_score_rate: f64::from(base_fulls) / f64::from(base_runs.max(1)),
+    })
 }
 
 /// One line of a faulted run's story, for what a team reads when a run fails.

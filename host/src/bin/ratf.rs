@@ -224,6 +224,10 @@ struct FaultsBenchArgs {
     /// Also print, for each faulted run short of full score, what happened in order.
     #[arg(long)]
     verbose: bool,
+    /// Calibrate each seed's world first (the calibration drive with tape measures); the
+    /// robot believes the calibration.
+    #[arg(long)]
+    calibrated: bool,
 }
 
 #[derive(Debug, Args)]
@@ -1186,9 +1190,17 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
     }
     let started = Instant::now();
     let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
-    println!("world: {}; our policy; rounds 1–3", config.sim.world);
+    println!(
+        "world: {}{}; our policy; rounds 1–3",
+        config.sim.world,
+        if args.calibrated {
+            ", each seed calibrated first (ratf calibrate, with tape)"
+        } else {
+            ""
+        }
+    );
     println!("seeds {} to {}", seeds.start(), seeds.end());
-    let rows = fault_bench::bench(&config, seeds.clone(), &injections, |p| {
+    let bench = fault_bench::bench(&config, seeds.clone(), &injections, args.calibrated, |p| {
         let (what, r, story) = match p {
             FaultProgress::Baseline(r) => ("no fault", r, &[][..]),
             FaultProgress::Faulted(name, r, story) => (name, r, story),
@@ -1204,6 +1216,11 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             }
         }
     })?;
+    let rows = &bench.rows;
+    println!(
+        "fault-free runs of the same seeds: {:.0}% full score",
+        bench.fault_free_full_score_rate * 100.0
+    );
     println!(
         "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>7} {:>7} {:>6} {:>7}",
         "fault",
@@ -1218,7 +1235,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
         "unsafe",
         "stop ms"
     );
-    for r in &rows {
+    for r in rows {
         let by_round = r
             .full_score_rate_by_round
             .map(|f| format!("{:.0}", f * 100.0))
@@ -1251,7 +1268,9 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             "{}",
             serde_json::json!({
                 "world": config.sim.world,
+                "calibrated": args.calibrated,
                 "seeds": [seeds.start(), seeds.end()],
+                "fault_free_full_score_rate": bench.fault_free_full_score_rate,
                 "faults": rows
             })
         );
