@@ -54,7 +54,7 @@ fn run(
     while devices.now_us() < until_ms * 1_000 {
         injector.before_step(devices);
         devices.advance().unwrap();
-        if devices.now_us() % 20_000 == 0 {
+        if devices.now_us().is_multiple_of(20_000) {
             devices.apply_outputs(&Outputs {
                 wheels: Some(WheelCommand {
                     solenoid_on: magnet,

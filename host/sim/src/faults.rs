@@ -319,19 +319,16 @@ impl FaultInjector {
         let world = sim.world_mut();
         match event.kind {
             FaultKind::LidarDropout if first => world.lidar_mut().enabled = false,
-            FaultKind::Person => {
-                // Every 20 ms is enough: 12 mm per move.
-                if first || (now_us - event.start_us) % 20_000 < 1_000 {
-                    let beacons = world.field().beacons();
-                    let beacon = beacons[(event.seed % 4) as usize].circle.center;
-                    let out = if beacon.x > 0.0 { 1.0 } else { -1.0 };
-                    let along =
-                        (now_us - event.start_us) as f64 / PERSON_WALK_US as f64 * 1.6 - 0.8;
-                    let at = Vec2::new(beacon.x + out * PERSON_OFFSET_M, beacon.y + along);
-                    let mut clutter = self.base_clutter.clone();
-                    clutter.extend(person(at));
-                    world.set_clutter(&clutter);
-                }
+            // Every 20 ms is enough: 12 mm per move.
+            FaultKind::Person if first || (now_us - event.start_us) % 20_000 < 1_000 => {
+                let beacons = world.field().beacons();
+                let beacon = beacons[(event.seed % 4) as usize].circle.center;
+                let out = if beacon.x > 0.0 { 1.0 } else { -1.0 };
+                let along = (now_us - event.start_us) as f64 / PERSON_WALK_US as f64 * 1.6 - 0.8;
+                let at = Vec2::new(beacon.x + out * PERSON_OFFSET_M, beacon.y + along);
+                let mut clutter = self.base_clutter.clone();
+                clutter.extend(person(at));
+                world.set_clutter(&clutter);
             }
             FaultKind::WheelSlip if first => world.set_grip(rng.uniform_in(0.5, 0.8)),
             FaultKind::PartSlip => {

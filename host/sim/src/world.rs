@@ -344,7 +344,7 @@ impl World {
                 // Booted: a fresh Mega with the same settings, counting from the wheels'
                 // angles now.
                 self.mega_down_until_ns = None;
-                self.mcu = Mcu::new(self.mcu.config().clone());
+                self.mcu = Mcu::new(*self.mcu.config());
                 self.from_mega.send(self.mcu.boot().as_bytes(), self.now_ns);
                 let ticks_per_rad = self.config.robot.ticks_per_wheel_rev / std::f64::consts::TAU;
                 for (k, angle) in self.body.wheel_angles_rad.iter().enumerate() {
