@@ -167,10 +167,14 @@ impl Core {
             &mut outputs.events,
         );
         outputs.referee = tick.request;
-        let holding = self.silence.check(now_us, &mut outputs.events);
-        if self.stopped || holding {
+        let hold = self.silence.check(now_us, &mut outputs.events);
+        if self.stopped {
             self.robot.command_motion(BodyTwist::default());
             self.robot.command_solenoid(false);
+        } else if hold.wheels {
+            self.robot.command_motion(BodyTwist::default());
+            self.robot
+                .command_solenoid(tick.solenoid_on && !hold.magnet);
         } else if let Some(manual) = self.manual {
             let fresh = now_us <= manual.until_us && mega_heard;
             self.robot.command_motion(if fresh {
@@ -403,14 +407,19 @@ mod tests {
         )
     }
 
-    fn empty_scan(ms: u64) -> Stamped {
+    fn scan(ms: u64, points: usize) -> Stamped {
+        let point = crate::drivers::x4::scan::ScanPoint {
+            angle_rad: 0.0,
+            range_m: 1.0,
+            time_offset_us: 0.0,
+        };
         at(
             ms,
             Input::Scan(crate::drivers::x4::scan::Scan {
                 stamp_us: (ms * 1_000) as f64,
                 sample_period_us: 200.0,
                 scan_frequency_hz: 7.0,
-                points: Vec::new(),
+                points: vec![point; points],
                 samples: 0,
                 points_out_of_range: 0,
                 points_overflowed: 0,
@@ -419,13 +428,18 @@ mod tests {
         )
     }
 
-    /// Issue 17: a lidar or a Mega that stops sending while plugged in reached the core only
-    /// as silence, and the core drove on (blind, on odometry) until a device thread gave up
-    /// seconds later, or for ever in the simulator. Now it holds still, magnet off, within
-    /// the guard's limit plus one tick, and goes on when the data flows again.
+    /// Issue 17: a lidar or a Mega that stops sending while plugged in (or a lidar whose
+    /// revolutions come empty) reached the core only as silence, and the core drove on
+    /// (blind, on odometry) until a device thread gave up seconds later, or for ever in the
+    /// simulator. Now it holds still, magnet off, within the guard's limit, one tick and the
+    /// magnet's 100 ms, and goes on when the data flows again.
     #[test]
     fn a_silent_lidar_or_mega_holds_the_robot_until_it_speaks_again() {
-        for silent in [DeviceKind::Lidar, DeviceKind::Mega] {
+        for (silent, empty) in [
+            (DeviceKind::Lidar, false),
+            (DeviceKind::Lidar, true),
+            (DeviceKind::Mega, false),
+        ] {
             let mut core = core();
             core.step(&at(5, Input::MegaReset));
             core.step(&at(
@@ -438,7 +452,7 @@ mod tests {
                 let ms = 20 * k + 13;
                 core.step(&telemetry(ms));
                 if k % 7 == 0 {
-                    core.step(&empty_scan(ms));
+                    core.step(&scan(ms, 100));
                 }
                 drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
             }
@@ -458,13 +472,24 @@ mod tests {
                 if silent != DeviceKind::Mega {
                     core.step(&telemetry(ms));
                 }
-                if silent != DeviceKind::Lidar && k % 7 == 0 {
-                    core.step(&empty_scan(ms));
+                if k % 7 == 0 {
+                    if silent != DeviceKind::Lidar {
+                        core.step(&scan(ms, 100));
+                    } else if empty {
+                        core.step(&scan(ms, 0));
+                    }
                 }
                 let out = core.step(&at(ms + 4, Input::HostTick));
                 events.extend(out.events.iter().cloned());
                 let wheels = out.wheels.unwrap();
                 if ms + 4 > last_ms + limit_ms + 20 {
+                    assert!(
+                        !moving(&out),
+                        "{silent}: drove {} ms after",
+                        ms + 4 - last_ms
+                    );
+                }
+                if ms + 4 > last_ms + limit_ms + 20 + 100 {
                     assert!(
                         !moving(&out) && !wheels.solenoid_on,
                         "{silent}: drove {} ms after its last data",
@@ -484,7 +509,7 @@ mod tests {
                 let ms = 20 * k + 13;
                 core.step(&telemetry(ms));
                 if k % 7 == 0 {
-                    core.step(&empty_scan(ms));
+                    core.step(&scan(ms, 100));
                 }
                 back.extend(core.step(&at(ms + 4, Input::HostTick)).events);
             }
