@@ -44,6 +44,8 @@ pub struct SimDevices {
     scan_drop: Option<(f64, SimRng)>,
     wheel_batches: usize,
     lidar_streaming: bool,
+    lidar_cut: bool,
+    imu_failures: u32,
 }
 
 impl SimDevices {
@@ -70,6 +72,8 @@ impl SimDevices {
             scan_drop: None,
             wheel_batches: 0,
             lidar_streaming: false,
+            lidar_cut: false,
+            imu_failures: 0,
             world,
         })
     }
@@ -93,6 +97,17 @@ impl SimDevices {
     /// (drawn from `seed`) before it reaches the core, as a USB hiccup would.
     pub fn drop_scans(&mut self, probability: f64, seed: u64) {
         self.scan_drop = Some((probability, SimRng::new(seed).fork("scan-drop")));
+    }
+
+    /// Fault injection: the lidar's line carries nothing from now on (`true`), as when the
+    /// X4 stops for good while its port stays open; `false` restores it.
+    pub fn cut_lidar(&mut self, cut: bool) {
+        self.lidar_cut = cut;
+    }
+
+    /// IMU reads that failed so far (skipped, as the robot's IMU thread does).
+    pub fn imu_failures(&self) -> u32 {
+        self.imu_failures
     }
 
     /// True when every input of the last world step has been handed out: the next
@@ -140,7 +155,7 @@ impl SimDevices {
         });
         // The X4's motor spins from power-up, but it sends nothing until told to scan.
         let mut bytes = self.world.receive_from_lidar();
-        if !self.lidar_streaming {
+        if !self.lidar_streaming || self.lidar_cut {
             bytes.clear();
         }
         let scan_drop = &mut self.scan_drop;
@@ -153,12 +168,15 @@ impl SimDevices {
             }
         });
         if now_us >= self.next_imu_us {
-            let sample = self
-                .imu
-                .read_sample(now_us)?
-                .rotated_about_z(self.imu_yaw_rad);
-            self.pending
-                .push_back(Stamped::new(time, Input::Imu(sample)));
+            // A failed read is skipped, as `ratf run`'s IMU thread does: the core just gets
+            // no sample.
+            match self.imu.read_sample(now_us) {
+                Ok(sample) => self.pending.push_back(Stamped::new(
+                    time,
+                    Input::Imu(sample.rotated_about_z(self.imu_yaw_rad)),
+                )),
+                Err(_) => self.imu_failures += 1,
+            }
             self.next_imu_us += IMU_PERIOD_US;
         }
         if now_us >= self.next_host_tick_us {

@@ -7,6 +7,9 @@
 
 pub mod body;
 pub mod devices;
+#[cfg(test)]
+mod fault_tests;
+pub mod faults;
 pub mod harness;
 pub mod imu;
 pub mod lidar;

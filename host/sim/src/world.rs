@@ -181,6 +181,8 @@ pub struct World {
     grip: f64,
     stats: WorldStats,
     truth: WorldTruth,
+    /// Fault injection: the Mega is off until this time, ns (`u64::MAX`: for good).
+    mega_down_until_ns: Option<u64>,
 }
 
 impl World {
@@ -254,6 +256,7 @@ impl World {
             field,
             config: world,
             truth,
+            mega_down_until_ns: None,
         }
     }
 
@@ -325,10 +328,65 @@ impl World {
         self.grip = grip.clamp(0.0, 1.0);
     }
 
+    /// Fault injection: the Mega resets now and is back `boot_us` later (its bootloader's
+    /// wait), sending its `r` frame and counting from zero; `None`: it is gone for good (its
+    /// USB cable out, the board dead). While it is off the motors get no PWM and the magnet
+    /// no current, and what the host sends is lost.
+    pub fn reset_mega(&mut self, boot_us: Option<u64>) {
+        self.mega_down_until_ns = Some(boot_us.map_or(u64::MAX, |us| self.now_ns + us * 1000));
+        self.actuation = Actuation::default();
+    }
+
+    /// True while the Mega is off ([`Self::reset_mega`]).
+    pub fn mega_is_down(&mut self) -> bool {
+        match self.mega_down_until_ns {
+            Some(until) if self.now_ns >= until => {
+                // Booted: a fresh Mega with the same settings, counting from the wheels'
+                // angles now.
+                self.mega_down_until_ns = None;
+                self.mcu = Mcu::new(*self.mcu.config());
+                self.from_mega.send(self.mcu.boot().as_bytes(), self.now_ns);
+                let ticks_per_rad = self.config.robot.ticks_per_wheel_rev / std::f64::consts::TAU;
+                for (k, angle) in self.body.wheel_angles_rad.iter().enumerate() {
+                    self.ticks_at_last_tick[k] = (angle * ticks_per_rad).floor() as i64;
+                }
+                false
+            }
+            Some(_) => true,
+            None => false,
+        }
+    }
+
+    /// Fault injection: `bytes` of line noise arrive on the Mega → host line now, into the
+    /// host's decoder among the telemetry (dropped and counted beyond the Mega's ring, as
+    /// any burst is).
+    pub fn inject_from_mega(&mut self, bytes: &[u8]) {
+        self.from_mega.send(bytes, self.now_ns);
+    }
+
+    /// Fault injection: every IMU transaction fails from now on (`false` heals the bus).
+    pub fn fail_imu(&mut self, failing: bool) {
+        self.imu.borrow_mut().fail_with(failing.then_some(
+            embedded_hal::i2c::ErrorKind::NoAcknowledge(
+                embedded_hal::i2c::NoAcknowledgeSource::Address,
+            ),
+        ));
+    }
+
+    /// Fault injection: the floor's parts, to knock one or let the carried one slip.
+    pub fn shop_mut(&mut self) -> &mut Shop {
+        &mut self.shop
+    }
+
     /// Fault injection: replace what stands around the field (what the lidar can see).
     pub fn set_clutter(&mut self, clutter: &[Solid]) {
         let height = self.config.robot.lidar_height_m;
         self.scene = LidarScene::new(&self.field, clutter, height);
+    }
+
+    /// What the lidar can see now (the field and the clutter, a walking person included).
+    pub fn lidar_scene(&self) -> &LidarScene {
+        &self.scene
     }
 
     /// The lidar, to inject faults (e.g. switch it off for a while).
@@ -368,11 +426,16 @@ impl World {
         let mega_now_us = now_us as u32;
 
         let received = self.to_mega.receive(self.now_ns);
-        if !received.is_empty() {
+        if self.mega_is_down() {
+            // Off: the motor shield gets no PWM and the magnet no current; bytes are lost.
+            self.actuation = Actuation::default();
+        } else if !received.is_empty() {
             self.mcu.receive(&received, mega_now_us);
             self.actuation.solenoid_on = self.mcu.solenoid_on();
         }
-        if self.now_ns >= self.next_tick_ns {
+        if self.mega_is_down() {
+            self.next_tick_ns = self.now_ns + u64::from(self.config.mega.control_period_us) * 1000;
+        } else if self.now_ns >= self.next_tick_ns {
             self.mega_tick(mega_now_us);
             self.next_tick_ns += u64::from(self.config.mega.control_period_us) * 1000;
         }

@@ -1,10 +1,13 @@
 //! Apps built on the core and the simulated world: a whole round ([`round`]), the velocity
-//! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`]; where a
-//! round's time goes: [`time_split`]) and the replay of a recording ([`replay`]).
+//! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`],
+//! [`fault_bench`]; where a round's time goes: [`time_split`]) and the replay of a recording
+//! ([`replay`]).
 
 pub mod calibrate;
 pub mod check;
 pub mod drive;
+pub mod fault_bench;
+pub mod fault_round;
 pub mod loc_bench;
 pub mod nav_bench;
 pub mod replay;

@@ -23,6 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::fault_round::{AFTER_STOP_FAULT_US, FaultOutcome, RoundFaults};
 use crate::apps::time_split::{TimeSplit, TimeSplitTap};
 use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
 use crate::devices::realtime::Paced;
@@ -40,6 +41,7 @@ use ratf_core::runtime::{
     Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
 };
 use ratf_sim::devices::SimDevices;
+use ratf_sim::faults::FaultPlan;
 use ratf_sim::parts::{PartEvent, PartPlace};
 use ratf_sim::referee::{MockError, MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::truth::WorldTruth;
@@ -229,6 +231,7 @@ struct RoundDevices {
     ticked: bool,
     skipped: u32,
     events: Vec<RoundEvent>,
+    faults: Option<RoundFaults>,
 }
 
 impl RoundDevices {
@@ -283,6 +286,9 @@ impl RoundDevices {
             let _ = self.server.referee_mut().take(slot, now_us);
             self.server_removes = None;
         }
+        if let Some(faults) = &mut self.faults {
+            faults.before_step(&mut self.sim);
+        }
     }
 }
 
@@ -294,6 +300,14 @@ impl Devices for RoundDevices {
             return Ok(Some(input));
         }
         loop {
+            if let Some(datagram) = self
+                .faults
+                .as_mut()
+                .and_then(|f| f.late_answer(self.sim.now_us()))
+            {
+                let time = Timestamp::from_us(self.sim.now_us());
+                return Ok(Some(Stamped::new(time, Input::Referee { datagram })));
+            }
             if let Some(input) = self.sim.pop_input() {
                 if input.input == Input::HostTick {
                     self.ticked = true;
@@ -320,6 +334,9 @@ impl Devices for RoundDevices {
 
     fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), RoundError> {
         self.sim.apply_outputs(outputs);
+        if let Some(faults) = &mut self.faults {
+            faults.watch(input.time.as_us(), outputs);
+        }
         for event in &outputs.events {
             if matches!(event, Event::Skipped { .. }) {
                 self.skipped += 1;
@@ -340,8 +357,14 @@ impl Devices for RoundDevices {
                     .map_err(RoundError::Server)?;
             }
             for datagram in self.link.receive() {
-                self.queued
-                    .push_back(Stamped::new(input.time, Input::Referee { datagram }));
+                let delivered = match &mut self.faults {
+                    Some(faults) => faults.answer(input.time.as_us(), datagram),
+                    None => vec![datagram],
+                };
+                for datagram in delivered {
+                    self.queued
+                        .push_back(Stamped::new(input.time, Input::Referee { datagram }));
+                }
             }
         }
         Ok(())
@@ -390,8 +413,23 @@ pub fn run_live(
     options: &RoundOptions,
     taps: &mut [&mut dyn Tap],
     live: Live<'_>,
-    mut on_event: impl FnMut(&RoundEvent),
+    on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
+    run_faulted(world, robot, options, None, taps, live, on_event).map(|(report, _)| report)
+}
+
+/// [`run_in_world`] with the faults of `plan` injected into the world, its devices and the
+/// server's answers (`None`: none); also what the faults did. After a fault that must stop
+/// the robot the round ends [`AFTER_STOP_FAULT_US`] later.
+pub fn run_faulted(
+    world: &Config,
+    robot: &Config,
+    options: &RoundOptions,
+    plan: Option<FaultPlan>,
+    taps: &mut [&mut dyn Tap],
+    live: Live<'_>,
+    mut on_event: impl FnMut(&RoundEvent),
+) -> Result<(RoundReport, FaultOutcome), RoundError> {
     let RoundOptions {
         round,
         seed,
@@ -438,7 +476,15 @@ pub fn run_live(
         ticked: false,
         skipped: 0,
         events: Vec::new(),
+        faults: plan.map(|plan| RoundFaults::new(plan, &robot_config, scenario.clutter.clone())),
     };
+    let limit_us = round_devices
+        .faults
+        .as_ref()
+        .and_then(|f| f.plan().first_unrecoverable())
+        .map_or((ROUND_LIMIT_S * 1e6) as u64, |e| {
+            e.start_us.saturating_add(AFTER_STOP_FAULT_US)
+        });
     // Without an operator the channel's sender is dropped at once: nothing ever arrives.
     let commands = live.operator.unwrap_or_else(|| operator_channel().1);
     let mut devices = WithOperator::new(Paced::new(round_devices, live.speed), commands);
@@ -447,7 +493,6 @@ pub fn run_live(
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut last_batches = 0;
-    let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
     let mut finished_at_us: Option<u64> = None;
     let mut time_split = TimeSplitTap::new(&robot_config);
     let mut all_taps: Vec<&mut dyn Tap> = Vec::with_capacity(taps.len() + 1);
@@ -535,7 +580,12 @@ pub fn run_live(
         .map_or_else(TimeSplit::default, |from| {
             time_split.split(from, devices.last_point_us)
         });
-    Ok(RoundReport {
+    let outcome = devices
+        .faults
+        .as_ref()
+        .map(RoundFaults::outcome)
+        .unwrap_or_default();
+    let report = RoundReport {
         final_parts,
         round,
         seed,
@@ -553,7 +603,8 @@ pub fn run_live(
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
         time_split,
-    })
+    };
+    Ok((report, outcome))
 }
 
 /// Run a round and record it to `path` (see [`crate::recording`]); `on_event` hears the

@@ -53,7 +53,8 @@ pub fn event_kind(event: &Event) -> &'static str {
         Event::ServerDisagrees { .. } | Event::RefereeFailed { .. } => "server",
         Event::Stopped | Event::Resumed | Event::ManualDrive | Event::PoseSet { .. } => "operator",
         Event::GyroBiasMeasured { .. } | Event::GyroBiasRefused { .. } => "info",
-        Event::DeviceFault { .. } => "fault",
+        Event::DeviceSilent { .. } | Event::DeviceFault { .. } => "fault",
+        Event::DeviceBack { .. } => "info",
     }
 }
 

@@ -14,6 +14,7 @@ use super::bringup::{BiasOutcome, GyroBiasStartup};
 use super::event::Event;
 use super::input::{Input, MANUAL_DEADMAN_US, OperatorCommand, Stamped, Timestamp};
 use super::output::{LidarCommand, Outputs, WheelCommand};
+use super::silence::SilenceGuard;
 
 /// What a display shows of the core (the HMI, the live status line, the logs).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -58,6 +59,7 @@ pub struct Core {
     gyro_bias: GyroBiasStartup,
     placed: u32,
     time: Timestamp,
+    silence: SilenceGuard,
 }
 
 impl Core {
@@ -82,6 +84,7 @@ impl Core {
             gyro_bias: GyroBiasStartup::default(),
             placed: 0,
             time: Timestamp::ZERO,
+            silence: SilenceGuard::new(config),
         })
     }
 
@@ -93,6 +96,7 @@ impl Core {
         match &stamped.input {
             Input::HostTick => self.on_tick(now_us, &mut outputs),
             Input::Wheels(_) | Input::MegaReset | Input::Scan(_) | Input::Imu(_) => {
+                self.silence.heard(&stamped.input, now_us);
                 self.robot.handle(stamped)
             }
             Input::Referee { datagram } => {
@@ -163,9 +167,14 @@ impl Core {
             &mut outputs.events,
         );
         outputs.referee = tick.request;
+        let hold = self.silence.check(now_us, &mut outputs.events);
         if self.stopped {
             self.robot.command_motion(BodyTwist::default());
             self.robot.command_solenoid(false);
+        } else if hold.wheels {
+            self.robot.command_motion(BodyTwist::default());
+            self.robot
+                .command_solenoid(tick.solenoid_on && !hold.magnet);
         } else if let Some(manual) = self.manual {
             let fresh = now_us <= manual.until_us && mega_heard;
             self.robot.command_motion(if fresh {
@@ -260,6 +269,7 @@ mod tests {
     use super::*;
     use crate::field::{Field, PartColor};
     use crate::referee::protocol::Request;
+    use crate::runtime::DeviceKind;
 
     const BLUE: Option<PartColor> = Some(PartColor::Blue);
 
@@ -377,6 +387,137 @@ mod tests {
         assert_eq!(fault.wheels, Some(WheelCommand::STOP));
         for k in 0..10 {
             assert!(!moving(&core.step(&at(47 + 20 * k, Input::HostTick))));
+        }
+    }
+
+    fn telemetry(ms: u64) -> Stamped {
+        at(
+            ms,
+            Input::Wheels(crate::drivers::mega_link::WheelTelemetry {
+                totals: [0; 4],
+                deltas_ticks: Some([0; 4]),
+                period_us: 20_000,
+                switch_pressed: false,
+                quadrature_errors: None,
+                faults: None,
+                verified: true,
+                received_at_us: ms * 1_000,
+                sampled_at_us: ms * 1_000,
+            }),
+        )
+    }
+
+    fn scan(ms: u64, points: usize) -> Stamped {
+        let point = crate::drivers::x4::scan::ScanPoint {
+            angle_rad: 0.0,
+            range_m: 1.0,
+            time_offset_us: 0.0,
+        };
+        at(
+            ms,
+            Input::Scan(crate::drivers::x4::scan::Scan {
+                stamp_us: (ms * 1_000) as f64,
+                sample_period_us: 200.0,
+                scan_frequency_hz: 7.0,
+                points: vec![point; points],
+                samples: 0,
+                points_out_of_range: 0,
+                points_overflowed: 0,
+                packets_dropped: 0,
+            }),
+        )
+    }
+
+    /// Issue 17: a lidar or a Mega that stops sending while plugged in (or a lidar whose
+    /// revolutions come empty) reached the core only as silence, and the core drove on
+    /// (blind, on odometry) until a device thread gave up seconds later, or for ever in the
+    /// simulator. Now it holds still, magnet off, within the guard's limit, one tick and the
+    /// magnet's 100 ms, and goes on when the data flows again.
+    #[test]
+    fn a_silent_lidar_or_mega_holds_the_robot_until_it_speaks_again() {
+        for (silent, empty) in [
+            (DeviceKind::Lidar, false),
+            (DeviceKind::Lidar, true),
+            (DeviceKind::Mega, false),
+        ] {
+            let mut core = core();
+            core.step(&at(5, Input::MegaReset));
+            core.step(&at(
+                10,
+                Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
+            ));
+            // Both devices stream until 400 ms; the mission drives.
+            let mut drove = false;
+            for k in 0..20u64 {
+                let ms = 20 * k + 13;
+                core.step(&telemetry(ms));
+                if k % 7 == 0 {
+                    core.step(&scan(ms, 100));
+                }
+                drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
+            }
+            assert!(drove, "{silent}: the mission never moved");
+            // From 400 ms on, one of them says nothing.
+            let limit_ms = match silent {
+                DeviceKind::Lidar => 286,
+                _ => 60,
+            };
+            let last_ms = match silent {
+                DeviceKind::Lidar => 7 * 20 * 2 + 13,
+                _ => 393,
+            };
+            let mut events = Vec::new();
+            for k in 20..60u64 {
+                let ms = 20 * k + 13;
+                if silent != DeviceKind::Mega {
+                    core.step(&telemetry(ms));
+                }
+                if k % 7 == 0 {
+                    if silent != DeviceKind::Lidar {
+                        core.step(&scan(ms, 100));
+                    } else if empty {
+                        core.step(&scan(ms, 0));
+                    }
+                }
+                let out = core.step(&at(ms + 4, Input::HostTick));
+                events.extend(out.events.iter().cloned());
+                let wheels = out.wheels.unwrap();
+                if ms + 4 > last_ms + limit_ms + 20 {
+                    assert!(
+                        !moving(&out),
+                        "{silent}: drove {} ms after",
+                        ms + 4 - last_ms
+                    );
+                }
+                if ms + 4 > last_ms + limit_ms + 20 + 100 {
+                    assert!(
+                        !moving(&out) && !wheels.solenoid_on,
+                        "{silent}: drove {} ms after its last data",
+                        ms + 4 - last_ms
+                    );
+                }
+            }
+            assert!(
+                events
+                    .iter()
+                    .any(|e| matches!(e, Event::DeviceSilent { device, .. } if *device == silent)),
+                "{silent}: {events:?}"
+            );
+            // It speaks again: the hold ends.
+            let mut back = Vec::new();
+            for k in 60..80u64 {
+                let ms = 20 * k + 13;
+                core.step(&telemetry(ms));
+                if k % 7 == 0 {
+                    core.step(&scan(ms, 100));
+                }
+                back.extend(core.step(&at(ms + 4, Input::HostTick)).events);
+            }
+            assert!(
+                back.contains(&Event::DeviceBack { device: silent }),
+                "{silent}: {back:?}"
+            );
+            assert!(!core.status().stopped, "the hold is not an operator stop");
         }
     }
 }

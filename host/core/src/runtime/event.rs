@@ -93,6 +93,19 @@ pub enum Event {
         /// Why.
         reason: String,
     },
+    /// A device that had spoken fell silent: the robot holds still, magnet off, until it
+    /// speaks again ([`super::SilenceGuard`]).
+    DeviceSilent {
+        /// Which device.
+        device: DeviceKind,
+        /// The silence that triggered the hold, ms.
+        silent_ms: u64,
+    },
+    /// A silent device speaks again: the hold is over.
+    DeviceBack {
+        /// Which device.
+        device: DeviceKind,
+    },
     /// A device failed; the robot stopped.
     DeviceFault {
         /// Which device.
@@ -226,6 +239,11 @@ impl Event {
             Self::GyroBiasRefused { reason } => {
                 format!("no start-up gyro bias ({reason}); the localiser learns it")
             }
+            Self::DeviceSilent { device, silent_ms } => format!(
+                "{device} silent for {silent_ms} ms: holding still, magnet off, until it \
+                 speaks again (check its cable and power if this lasts)"
+            ),
+            Self::DeviceBack { device } => format!("{device} speaks again: going on"),
             Self::DeviceFault { device, message } => {
                 format!("{device} failed: {message}; stopped")
             }

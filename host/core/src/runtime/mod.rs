@@ -20,6 +20,7 @@ mod event;
 mod input;
 mod output;
 mod run;
+mod silence;
 
 pub use self::brain::{Brain, Phase};
 pub use self::bringup::{BiasOutcome, GYRO_BIAS_SAMPLES, GYRO_SETTLE_US, GyroBiasStartup};
@@ -28,3 +29,6 @@ pub use self::event::{Event, slot_name};
 pub use self::input::{DeviceKind, Input, MANUAL_DEADMAN_US, OperatorCommand, Stamped, Timestamp};
 pub use self::output::{LidarCommand, Outputs, WheelCommand};
 pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};
+pub use self::silence::{
+    Hold, LIDAR_SILENCE_REVOLUTIONS, MAGNET_OFF_AFTER_US, MEGA_SILENCE_PERIODS, SilenceGuard,
+};
