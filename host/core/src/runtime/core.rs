@@ -400,6 +400,7 @@ mod tests {
                 switch_pressed: false,
                 quadrature_errors: None,
                 faults: None,
+                settings_ack: None,
                 verified: true,
                 received_at_us: ms * 1_000,
                 sampled_at_us: ms * 1_000,
