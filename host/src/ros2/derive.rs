@@ -256,18 +256,19 @@ impl Deriver {
         }
     }
 
-    /// The scan on a uniform grid of one ray per sample of the revolution, starting at
-    /// the first point's angle and turning the way the X4 turns; each point in the ray
-    /// nearest its own angle (within half a ray), its range corrected as the core
-    /// corrects it (`[lidar] range_scale`, `range_offset_m`); rays without a point +∞.
+    /// The scan on a uniform grid of [`RAYS_PER_SAMPLE`] rays per sample of the
+    /// revolution, from the first point's angle, turning the way the X4 turned: each point
+    /// in the ray nearest its own angle as the X4 measured it (so within a quarter of the
+    /// X4's step of it: the X4 does not turn uniformly, so a point's sample index alone
+    /// would misplace it by degrees), its range corrected as the core corrects it
+    /// (`[lidar] range_scale`, `range_offset_m`); rays without a point +∞ (no return).
+    /// `time_increment` is the sample period over the rays per sample.
     fn laser_scan(&self, scan: &Scan) -> LaserScan {
         let lidar = &self.config.lidar;
-        let rays = (scan.samples as usize).max(scan.points.len()).max(1);
+        let rays = ((scan.samples as usize).max(scan.points.len()) * RAYS_PER_SAMPLE)
+            .clamp(RAYS_PER_SAMPLE, MAX_RAYS);
         let first = scan.points.first().map_or(0.0, |p| p.angle_rad);
-        let direction = match scan.points.get(1) {
-            Some(second) if wrap_angle(second.angle_rad - first) > 0.0 => 1.0,
-            _ => -1.0,
-        };
+        let direction = sweep_direction(scan);
         let step_rad = TAU / rays as f64;
         let mut ranges = vec![f32::INFINITY; rays];
         for point in &scan.points {
@@ -283,11 +284,11 @@ impl Deriver {
             angle_min: first as f32,
             angle_max: (first + increment * (rays - 1) as f64) as f32,
             angle_increment: increment as f32,
-            time_increment: (scan.sample_period_us * 1e-6) as f32,
+            time_increment: (scan.sample_period_us * 1e-6 / RAYS_PER_SAMPLE as f64) as f32,
             scan_time: if scan.scan_frequency_hz > 0.0 {
                 (1.0 / scan.scan_frequency_hz) as f32
             } else {
-                (scan.sample_period_us * 1e-6 * rays as f64) as f32
+                (scan.sample_period_us * 1e-6 * scan.samples as f64) as f32
             },
             range_min: lidar.min_range_m as f32,
             range_max: lidar.max_range_m as f32,
@@ -553,6 +554,25 @@ impl Deriver {
     }
 }
 
+/// Most rays a scan message carries (the X4 gives about 720 samples per revolution).
+const MAX_RAYS: usize = 8192;
+
+/// Rays per sample of the revolution: two, so that two neighbouring samples whose angles
+/// jitter by up to a quarter of a step still land in rays of their own.
+pub const RAYS_PER_SAMPLE: usize = 2;
+
+/// +1 when the scan's angles grow in acquisition order, −1 when they fall (the X4 turns
+/// clockwise, so its counter-clockwise angles fall): the sign of the sum of the wrapped
+/// steps between consecutive points.
+fn sweep_direction(scan: &Scan) -> f64 {
+    let turned: f64 = scan
+        .points
+        .windows(2)
+        .map(|pair| wrap_angle(pair[1].angle_rad - pair[0].angle_rad))
+        .sum();
+    if turned > 0.0 { 1.0 } else { -1.0 }
+}
+
 fn value(key: &str, value: impl ToString) -> KeyValue {
     KeyValue {
         key: key.to_owned(),
@@ -651,21 +671,46 @@ mod tests {
     }
 
     #[test]
-    fn a_clockwise_scan_keeps_each_range_at_its_angle_and_marks_gaps_infinite() {
+    fn each_range_sits_at_its_own_angle_and_gaps_are_infinite() {
         let deriver = Deriver::new(&Config::default());
         let step = TAU / 8.0;
-        // Clockwise (decreasing angles), one sample dropped at index 2.
-        let message = deriver.laser_scan(&scan(&[0.1, 0.1 - step, 0.1 - 3.0 * step], 8));
-        assert_eq!(message.ranges.len(), 8);
-        assert!((f64::from(message.angle_increment) + step).abs() < 1e-6);
+        // Clockwise (decreasing angles) across ±π, one sample dropped, one jittered by
+        // less than a quarter step: 8 samples → 16 rays of 22.5°.
+        let angles = [-2.5, -2.5 - step + 0.1 + TAU, -2.5 - 3.0 * step + TAU];
+        let message = deriver.laser_scan(&scan(&angles, 8));
+        assert_eq!(message.ranges.len(), 16);
+        assert!((f64::from(message.angle_increment) + TAU / 16.0).abs() < 1e-6);
+        assert!((f64::from(message.angle_min) + 2.5).abs() < 1e-6);
         let lidar = &Config::default().lidar;
         let expected = |r: f64| lidar.corrected_range_m(r) as f32;
         assert_eq!(message.ranges[0], expected(1.0));
-        assert_eq!(message.ranges[1], expected(2.0));
-        assert!(message.ranges[2].is_infinite());
-        assert_eq!(message.ranges[3], expected(3.0));
+        assert_eq!(message.ranges[2], expected(2.0));
+        assert_eq!(message.ranges[6], expected(3.0));
+        assert_eq!(
+            message.ranges.iter().filter(|r| r.is_finite()).count(),
+            3,
+            "{:?}",
+            message.ranges
+        );
+        assert!((f64::from(message.time_increment) - 100e-6).abs() < 1e-9);
         assert_eq!(message.header.stamp, Time { sec: 1, nanosec: 0 });
         assert_eq!(message.header.frame_id, frames::LASER);
+    }
+
+    #[test]
+    fn a_counter_clockwise_scan_turns_the_grid_the_other_way() {
+        let deriver = Deriver::new(&Config::default());
+        let message = deriver.laser_scan(&scan(&[0.0, 0.5, 1.0], 12));
+        assert!(message.angle_increment > 0.0);
+    }
+
+    #[test]
+    fn an_empty_scan_has_no_return_on_every_ray() {
+        let deriver = Deriver::new(&Config::default());
+        let message = deriver.laser_scan(&scan(&[], 720));
+        assert_eq!(message.ranges.len(), 720 * RAYS_PER_SAMPLE);
+        assert!(message.ranges.iter().all(|r| r.is_infinite()));
+        assert!(message.angle_increment < 0.0);
     }
 
     #[test]
