@@ -49,6 +49,9 @@ pub enum RunError {
     /// The recording could not be written.
     #[error("recording: {0}")]
     Recording(#[from] Box<RecordingError>),
+    /// The live ROS 2 bridge could not start.
+    #[error("{0}")]
+    Ros2(#[from] crate::ros2::live::BridgeError),
     /// A thread could not be started.
     #[error("starting the {what} thread: {source}")]
     Thread {
@@ -70,6 +73,8 @@ pub struct RunOptions {
     pub recording: PathBuf,
     /// Status lines per second (0: none).
     pub status_hz: f64,
+    /// The live ROS 2 bridge (`--ros2`), if asked for.
+    pub ros2: Option<crate::ros2::live::BridgeOptions>,
 }
 
 /// How a run ended.
@@ -437,7 +442,7 @@ pub fn run_robot(
         .into_iter()
         .collect();
     let OpenDevices {
-        mut devices,
+        devices,
         running:
             Running {
                 guard,
@@ -469,19 +474,21 @@ pub fn run_robot(
         terminal: std::io::stderr().is_terminal(),
         last_placed: None,
     };
+    let (operator, commands) = crate::devices::operator::operator_channel();
+    let mut bridge = crate::ros2::live::live_bridge(config, options.ros2.as_ref(), operator)?;
+    let mut devices = crate::devices::operator::WithOperator::new(devices, commands);
+    let mut taps: Vec<&mut dyn Tap> = vec![&mut recorder, &mut status];
+    if let Some(bridge) = bridge.as_mut() {
+        taps.push(bridge.as_mut());
+    }
     let cpu_start = cpu_time_s();
-    let result = run(
-        &mut core,
-        &mut devices,
-        &mut [&mut recorder, &mut status],
-        |core, _| {
-            if core.brain().phase() == Phase::Finished || shared.quitting() {
-                Flow::Stop
-            } else {
-                Flow::Continue
-            }
-        },
-    );
+    let result = run(&mut core, &mut devices, &mut taps, |core, _| {
+        if core.brain().phase() == Phase::Finished || shared.quitting() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    });
     // Stop the robot first, then tidy up.
     let stop_written = guard.stop();
     if status.terminal && status.period.is_some() {
@@ -522,7 +529,7 @@ pub fn run_robot(
         inputs: result.map_or(0, |s| s.inputs),
         inputs_dropped: shared.inputs_dropped(),
         stop_written,
-        latency: Latency::of(devices.latencies_us()),
+        latency: Latency::of(devices.inner().latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),

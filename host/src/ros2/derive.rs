@@ -121,11 +121,11 @@ pub enum Message {
     /// `/scan`.
     Scan(LaserScan),
     /// `/odom`.
-    Odometry(Odometry),
+    Odometry(Box<Odometry>),
     /// `/imu`.
-    Imu(Imu),
+    Imu(Box<Imu>),
     /// `/localiser/pose`.
-    Pose(PoseWithCovarianceStamped),
+    Pose(Box<PoseWithCovarianceStamped>),
     /// `/sim/true_pose`.
     TruePose(PoseStamped),
     /// One of the marker topics.
@@ -153,9 +153,9 @@ impl Message {
         match self {
             Message::Tf(_, m) => to_cdr(m),
             Message::Scan(m) => to_cdr(m),
-            Message::Odometry(m) => to_cdr(m),
-            Message::Imu(m) => to_cdr(m),
-            Message::Pose(m) => to_cdr(m),
+            Message::Odometry(m) => to_cdr(m.as_ref()),
+            Message::Imu(m) => to_cdr(m.as_ref()),
+            Message::Pose(m) => to_cdr(m.as_ref()),
             Message::TruePose(m) => to_cdr(m),
             Message::Markers(_, m) => to_cdr(m),
             Message::Diagnostics(m) => to_cdr(m),
@@ -217,10 +217,10 @@ impl Deriver {
             }
             Input::Wheels(_) => {
                 if let Some(odometry) = self.odometry(core, stamp) {
-                    out.push(Message::Odometry(odometry));
+                    out.push(Message::Odometry(Box::new(odometry)));
                 }
             }
-            Input::Imu(sample) => out.push(Message::Imu(self.imu(sample))),
+            Input::Imu(sample) => out.push(Message::Imu(Box::new(self.imu(sample)))),
             Input::DeviceFault { device, message } => {
                 self.faults.retain(|(d, _)| d != device);
                 self.faults.push((*device, message.clone()));
@@ -229,10 +229,10 @@ impl Deriver {
                 let estimation = core.robot().estimation();
                 let p = estimation.estimator().covariance();
                 let rows = [0, 1, 2].map(|i| [p[(i, 0)], p[(i, 1)], p[(i, 2)]]);
-                out.push(Message::Pose(PoseWithCovarianceStamped {
+                out.push(Message::Pose(Box::new(PoseWithCovarianceStamped {
                     header: Header::new(stamp, frames::MAP),
                     pose: PoseWithCovariance::planar(core.pose(), rows),
-                }));
+                })));
                 out.push(Message::Tf(
                     Topic::Tf,
                     frames::dynamic_transforms(stamp, core.pose(), estimation.odometry_pose()),

@@ -5,9 +5,14 @@
 //!   `ros2msg` text rosbag2 embeds;
 //! - [`frames`]: the tf frame names and the static transforms;
 //! - [`derive`]: the topics derived from each step of the runtime;
-//! - [`record`]: those topics as MCAP channels (`ros2msg` schemas, `cdr` encoding).
+//! - [`record`]: those topics as MCAP channels (`ros2msg` schemas, `cdr` encoding);
+//! - [`live`]: `ratf run --ros2`'s options, and `bridge` (cargo feature `ros2`): the same
+//!   topics live on DDS, and `cmd_vel` and `initialpose` back in as operator commands.
 
+#[cfg(feature = "ros2")]
+pub mod bridge;
 pub mod derive;
 pub mod frames;
+pub mod live;
 pub mod msgs;
 pub mod record;
