@@ -1,6 +1,7 @@
 //! `ratf run --ros2` seen by an independent DDS peer: Eclipse Cyclone DDS's Python binding
 //! (`host/tests/python/dds_peer.py`) subscribes with ROS 2 naming, joins `tf_static` late,
-//! and drives the robot with `cmd_vel`, against `ratf sim --serve-pty` in real time.
+//! drives the robot with `cmd_vel`, and asks for a QoS that cannot match, which `ratf`
+//! must report; against `ratf sim --serve-pty` in real time.
 //!
 //! Needs cargo feature `ros2` and a Python with `cyclonedds` in `RATF_DDS_PYTHON` (CI
 //! makes one); run it inside a private network namespace (`unshare -rn`, `lo` up with
@@ -19,7 +20,8 @@ use common::{Spawned, TempDir, one_at_a_time, read, serve};
 const DOMAIN: &str = "17";
 
 #[test]
-fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_and_drives_it_with_cmd_vel() {
+fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_drives_it_and_a_qos_mismatch_is_reported()
+{
     let python = std::env::var("RATF_DDS_PYTHON").unwrap_or_else(|_| {
         panic!(
             "set RATF_DDS_PYTHON to a Python with the PyPI package cyclonedds 11 \
@@ -81,6 +83,18 @@ fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_and_drives_it_with_cmd
         status.is_some_and(|s| s.success()) && log.contains(" 0 failed"),
         "the DDS peer: {status:?}\n{log}\nratf run stderr:\n{}",
         read(&dir.join("run.err"))
+    );
+    // The peer's transient-local reader of the volatile scan: reported on our side.
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !read(&dir.join("run.err")).contains("ROS 2: QoS mismatch with a subscriber")
+        && Instant::now() < deadline
+    {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let stderr = read(&dir.join("run.err"));
+    assert!(
+        stderr.contains("ROS 2: QoS mismatch with a subscriber"),
+        "ratf did not report the peer's QoS mismatch; its stderr:\n{stderr}"
     );
     print!("{log}");
 }

@@ -20,7 +20,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{
+    DomainParticipantBuilder, DomainParticipantStatusEvent, DomainParticipantStatusListener,
+    StatusEvented,
+};
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
@@ -68,6 +71,8 @@ pub struct BridgeCounters {
     pub initial_poses: AtomicU64,
     /// Messages refused (wrong frame, not finite, the operator queue full).
     pub refused: AtomicU64,
+    /// Peers whose QoS does not match ours (reported on stderr as they are found).
+    pub qos_mismatches: AtomicU64,
 }
 
 struct Publishers {
@@ -149,6 +154,7 @@ impl Bridge {
             builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
         }
         let participant = builder.build().map_err(|e| dds(&e))?;
+        let status = participant.status_listener();
         let context = Context::from_domain_participant(participant).map_err(|e| dds(&e))?;
         let node_name = NodeName::new(&namespace, "ratf")
             .map_err(|_| BridgeError::Namespace(options.namespace.clone()))?;
@@ -218,7 +224,14 @@ impl Bridge {
             let drive = options.cmd_vel;
             std::thread::Builder::new()
                 .name("ros2-commands".into())
-                .spawn(move || listen(&cmd_vel, &initial_pose, drive, &operator, &counters, &stop))
+                .spawn(move || {
+                    let peers = Peers {
+                        cmd_vel,
+                        initial_pose,
+                        status,
+                    };
+                    listen(&peers, drive, &operator, &counters, &stop)
+                })
                 .map_err(|e| dds(&e))?
         };
         Ok(Self {
@@ -288,16 +301,22 @@ impl Drop for Bridge {
 /// 20 ms host tick).
 const POLL_PERIOD: Duration = Duration::from_millis(5);
 
+/// What the command thread reads.
+struct Peers {
+    cmd_vel: Subscription<Twist>,
+    initial_pose: Subscription<PoseWithCovarianceStamped>,
+    status: DomainParticipantStatusListener,
+}
+
 fn listen(
-    cmd_vel: &Subscription<Twist>,
-    initial_pose: &Subscription<PoseWithCovarianceStamped>,
+    peers: &Peers,
     drive: bool,
     operator: &OperatorSender,
     counters: &BridgeCounters,
     stop: &AtomicBool,
 ) {
     while !stop.load(Ordering::Relaxed) {
-        while let Ok(Some((twist, _))) = cmd_vel.take() {
+        while let Ok(Some((twist, _))) = peers.cmd_vel.take() {
             if !drive {
                 counters.cmd_vel_ignored.fetch_add(1, Ordering::Relaxed);
                 continue;
@@ -310,7 +329,7 @@ fn listen(
             };
             counter.fetch_add(1, Ordering::Relaxed);
         }
-        while let Ok(Some((pose, _))) = initial_pose.take() {
+        while let Ok(Some((pose, _))) = peers.initial_pose.take() {
             let sent = set_pose_command(&pose).is_some_and(|c| operator.send(c).is_ok());
             let counter = if sent {
                 &counters.initial_poses
@@ -319,8 +338,40 @@ fn listen(
             };
             counter.fetch_add(1, Ordering::Relaxed);
         }
+        while let Some(event) = peers.status.try_recv_status() {
+            report_qos_mismatch(&event, counters);
+        }
         std::thread::sleep(POLL_PERIOD);
     }
+}
+
+/// A peer whose QoS cannot match ours would get nothing, silently: say so on stderr.
+fn report_qos_mismatch(event: &DomainParticipantStatusEvent, counters: &BridgeCounters) {
+    let (side, requested, offered) = match event {
+        DomainParticipantStatusEvent::RemoteReaderQosIncompatible {
+            requested_qos,
+            offered_qos,
+            ..
+        } => ("a subscriber", requested_qos, offered_qos),
+        DomainParticipantStatusEvent::RemoteWriterQosIncompatible {
+            requested_qos,
+            offered_qos,
+            ..
+        } => ("a publisher", requested_qos, offered_qos),
+        _ => return,
+    };
+    counters.qos_mismatches.fetch_add(1, Ordering::Relaxed);
+    eprintln!(
+        "ROS 2: QoS mismatch with {side}, no data will flow between us: it requests \
+         reliability {:?}, durability {:?}; the writer offers reliability {:?}, durability \
+         {:?}. Our topics are reliable and volatile (tf_static and markers/field: \
+         transient-local); cmd_vel and initialpose are read reliable: set the peer's QoS \
+         to match",
+        requested.reliability(),
+        requested.durability(),
+        offered.reliability(),
+        offered.durability()
+    );
 }
 
 /// A `cmd_vel` twist (robot frame: x forward, y left, yaw rate) as a drive command;

@@ -4,7 +4,7 @@
 //! - [`msgs`]: one serde definition per message type, in `.msg` field order, with the
 //!   `ros2msg` text rosbag2 embeds;
 //! - [`frames`]: the tf frame names and the static transforms;
-//! - [`derive`]: the topics derived from each step of the runtime;
+//! - [`derive`](mod@derive): the topics derived from each step of the runtime;
 //! - [`record`]: those topics as MCAP channels (`ros2msg` schemas, `cdr` encoding);
 //! - [`live`]: `ratf run --ros2`'s options, and `bridge` (cargo feature `ros2`): the same
 //!   topics live on DDS, and `cmd_vel` and `initialpose` back in as operator commands.

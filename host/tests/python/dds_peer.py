@@ -3,7 +3,9 @@ with ROS 2's naming (`rt/<ns>/scan`, `sensor_msgs::msg::dds_::LaserScan_`), not 
 
 1. subscribes `scan` and `odom` and checks what arrives (frames, sizes, finite values);
 2. joins `tf_static` late (transient-local) and still gets base_footprint → laser, imu_link;
-3. publishes `cmd_vel` (a turn on the spot) and sees the robot turn on `odom`.
+3. publishes `cmd_vel` (a turn on the spot) and sees the robot turn on `odom`;
+4. asks the volatile `scan` for transient-local data, a QoS that cannot match: it gets
+   nothing, and ratf reports the mismatch (the Rust test reads ratf's stderr).
 
 Usage: python dds_peer.py NAMESPACE (e.g. /robot1, or "" for none); ROS_DOMAIN_ID as the
 robot's. Prints one line per check and ends with "N passed, M failed"; exits 1 on a failure.
@@ -231,6 +233,18 @@ def main(namespace):
     )
     frames = {(o.header.frame_id, o.child_frame_id) for o in got}
     check("odom is odom → base_footprint", frames == {("odom", "base_footprint")}, str(frames))
+
+    # A QoS that cannot match: transient-local asked of the volatile scan writer. ratf
+    # must say so on its side (the test reads its stderr); here, nothing arrives.
+    mismatched = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.Durability.TransientLocal,
+        Policy.History.KeepLast(1),
+    )
+    wrong = DataReader(participant, Topic(participant, f"{prefix}/scan", LaserScan), qos=mismatched)
+    got = take_until(wrong, 1.5, lambda s: False)
+    check("a transient-local reader of the volatile scan gets nothing", not got, f"{len(got)} scans")
+    print("qos-mismatch reader created", flush=True)
 
     print(f"\ndds-peer: {passed} passed, {failed} failed", flush=True)
     return 1 if failed else 0
