@@ -2,28 +2,39 @@
 //!
 //! The drawing is in world coordinates (metres, +y up), mapped to SVG pixels at
 //! [`PIXELS_PER_M`] with y flipped. Numbers are written with fixed precision (0.1 px), so the
-//! same run gives the same file byte for byte.
+//! same run gives the same file byte for byte. The floor carries its labels (warehouses,
+//! machines, slots, beacons) and a scale bar; picks and drops have their own marks, and
+//! collisions are numbered on the map and listed in words below it, so that marks close
+//! together stay readable.
 
 use std::fmt::Write;
 
-use ratf_core::field::Field;
 use ratf_core::field::geometry::{Rect, Vec2};
+use ratf_core::field::stations::SlotKind;
+use ratf_core::field::{Field, MachineKind, WarehouseKind};
+use ratf_core::runtime::slot_name;
 
 /// Drawing scale, SVG pixels per metre.
 pub const PIXELS_PER_M: f64 = 500.0;
 
-/// The part of the world drawn: the printed floor plus the beacons just outside it, and a
-/// band above for the title and the legend.
+/// The part of the world drawn: the printed floor plus the beacons just outside it, a band
+/// above for the title and the legend, and one below for the scale bar and the collisions.
 const VIEW: Rect = Rect {
-    min: Vec2::new(-0.95, -0.66),
+    min: Vec2::new(-0.95, -0.74),
     max: Vec2::new(0.95, 0.80),
 };
+
+/// Collisions within this distance of each other share one numbered mark, m.
+const COLLISION_CLUSTER_M: f64 = 0.05;
+/// Collision lines listed under the floor before "and N more".
+const COLLISION_LINES: usize = 3;
 
 /// An SVG drawing of the field with things added on top.
 #[derive(Clone, Debug)]
 pub struct FieldPlot {
     body: String,
     legend: Vec<(String, String)>,
+    collisions: Vec<(Vec2, Vec<String>)>,
 }
 
 fn px(v: Vec2) -> (f64, f64) {
@@ -58,6 +69,7 @@ impl FieldPlot {
         let mut plot = Self {
             body: String::new(),
             legend: Vec::new(),
+            collisions: Vec::new(),
         };
         plot.rect(field.printed_area(), "#fafafa", "#999999");
         plot.rect(field.start_area(), "#e3f5e1", "#8bc48a");
@@ -74,8 +86,162 @@ impl FieldPlot {
                 plot.body,
                 r##"<circle cx="{x:.1}" cy="{y:.1}" r="{r:.1}" fill="#f2c14e" stroke="#9a7412"/>"##
             );
+            let out = beacon.circle.radius_m + 0.025;
+            let dy = if beacon.circle.center.y > 0.0 {
+                out
+            } else {
+                -out
+            };
+            let at = beacon.circle.center + Vec2::new(0.0, dy);
+            plot.label(at, &format!("B{}", beacon.index), 11.0, "#9a7412");
         }
+        for slot in field.slots() {
+            let name = slot_name(field, slot.waypoint);
+            let number = name.chars().last().unwrap_or('?');
+            let short = match slot.kind {
+                SlotKind::Incoming => format!("I{number}"),
+                SlotKind::Outgoing => format!("O{number}"),
+                SlotKind::MachineInput => "in".to_owned(),
+                SlotKind::MachineOutput => "out".to_owned(),
+            };
+            plot.label(slot.box_rect().center(), &short, 9.0, "#777777");
+        }
+        let areas = [
+            (
+                field.warehouse(WarehouseKind::Incoming).wall.rect,
+                "incoming warehouse",
+            ),
+            (
+                field.warehouse(WarehouseKind::Outgoing).wall.rect,
+                "outgoing warehouse",
+            ),
+            (field.machine_block(MachineKind::A).wall.rect, "machine A"),
+            (field.machine_block(MachineKind::B).wall.rect, "machine B"),
+        ];
+        for (rect, name) in areas {
+            let y = if rect.min.y > 0.0 {
+                rect.max.y + 0.025
+            } else {
+                rect.min.y - 0.035
+            };
+            plot.label(Vec2::new(rect.center().x, y), name, 12.0, "#1f2a36");
+        }
+        plot.label(
+            Vec2::new(
+                field.start_area().center().x,
+                field.start_area().min.y + 0.02,
+            ),
+            "start",
+            10.0,
+            "#4a8a49",
+        );
+        plot.scale_bar();
         plot
+    }
+
+    /// Text centred at `at` (world, m).
+    fn label(&mut self, at: Vec2, text: &str, size: f64, color: &str) {
+        let (x, y) = px(at);
+        let _ = writeln!(
+            self.body,
+            r#"<text x="{x:.1}" y="{y:.1}" font-size="{size:.0}" fill="{color}" text-anchor="middle" dominant-baseline="middle">{}</text>"#,
+            escape(text)
+        );
+    }
+
+    /// A 20 cm bar under the floor, left of centre.
+    fn scale_bar(&mut self) {
+        let (x, y) = px(Vec2::new(-0.60, -0.685));
+        let length = 0.2 * PIXELS_PER_M;
+        let _ = writeln!(
+            self.body,
+            r##"<path d="M{x:.1},{:.1} V{:.1} H{:.1} V{:.1} M{:.1},{:.1} V{:.1}" fill="none" stroke="#222222" stroke-width="2"/><text x="{:.1}" y="{:.1}" font-size="12">20 cm</text>"##,
+            y - 5.0,
+            y,
+            x + length,
+            y - 5.0,
+            x + length / 2.0,
+            y,
+            y - 3.0,
+            x + length + 6.0,
+            y + 1.0
+        );
+    }
+
+    /// A pick (an upward triangle) or a drop (a downward one) at `at` (world, m), outlined
+    /// in the part's colour `color`.
+    pub fn pick_or_drop(&mut self, at: Vec2, picked: bool, color: &str) {
+        let (x, y) = px(at);
+        let s = if picked { 7.0 } else { -7.0 };
+        let _ = writeln!(
+            self.body,
+            r##"<path d="M{x:.1},{:.1} L{:.1},{:.1} L{:.1},{:.1} Z" fill="{color}" stroke="#111111" stroke-width="1.2" opacity="0.9"/>"##,
+            y - s,
+            x - 6.0,
+            y + s * 0.7,
+            x + 6.0,
+            y + s * 0.7
+        );
+    }
+
+    /// A collision at `at` (world, m) described by `text`: collisions near each other share
+    /// one numbered cross; [`FieldPlot::finish`] lists them under the floor.
+    pub fn collision(&mut self, at: Vec2, text: &str) {
+        match self
+            .collisions
+            .iter_mut()
+            .find(|(p, _)| p.distance(at) < COLLISION_CLUSTER_M)
+        {
+            Some((_, texts)) => texts.push(text.to_owned()),
+            None => self.collisions.push((at, vec![text.to_owned()])),
+        }
+    }
+
+    fn draw_collisions(&mut self) {
+        let collisions = std::mem::take(&mut self.collisions);
+        let bottom = (VIEW.max.y - VIEW.min.y) * PIXELS_PER_M;
+        let mut lines = Vec::new();
+        for (i, (at, texts)) in collisions.iter().enumerate() {
+            let (x, y) = px(*at);
+            let s = 6.0;
+            let number = i + 1;
+            let _ = writeln!(
+                self.body,
+                r##"<path d="M{:.1},{:.1} L{:.1},{:.1} M{:.1},{:.1} L{:.1},{:.1}" stroke="#d01010" stroke-width="2.5"/><circle cx="{:.1}" cy="{:.1}" r="8" fill="#d01010"/><text x="{:.1}" y="{:.1}" font-size="11" fill="white" text-anchor="middle" dominant-baseline="middle">{number}</text>"##,
+                x - s,
+                y - s,
+                x + s,
+                y + s,
+                x - s,
+                y + s,
+                x + s,
+                y - s,
+                x + s + 6.0,
+                y - s - 6.0,
+                x + s + 6.0,
+                y - s - 6.0,
+            );
+            let times = if texts.len() > 1 {
+                format!(" (×{})", texts.len())
+            } else {
+                String::new()
+            };
+            lines.push(format!("{number}: {}{times}", texts[0]));
+        }
+        if lines.len() > COLLISION_LINES {
+            let more = lines.len() - COLLISION_LINES;
+            lines.truncate(COLLISION_LINES);
+            lines.push(format!("and {more} more"));
+        }
+        // One column right of the scale bar, in the band under the floor.
+        for (i, line) in lines.iter().enumerate() {
+            let _ = writeln!(
+                self.body,
+                r##"<text x="420.0" y="{:.1}" font-size="11" fill="#d01010">{}</text>"##,
+                bottom - 48.0 + 13.0 * i as f64,
+                escape(line)
+            );
+        }
     }
 
     fn rect(&mut self, rect: Rect, fill: &str, stroke: &str) {
@@ -99,6 +265,11 @@ impl FieldPlot {
             r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="2"{dash}/>"#,
             points_attr(points)
         );
+        self.legend.push((color.to_owned(), label.to_owned()));
+    }
+
+    /// A line in the legend with no drawing of its own (for marks).
+    pub fn legend_entry(&mut self, color: &str, label: &str) {
         self.legend.push((color.to_owned(), label.to_owned()));
     }
 
@@ -143,6 +314,7 @@ impl FieldPlot {
 
     /// The finished SVG document, with `title` and the legend.
     pub fn finish(mut self, title: &str) -> String {
+        self.draw_collisions();
         let width = VIEW.size_x() * PIXELS_PER_M;
         let height = VIEW.size_y() * PIXELS_PER_M;
         let _ = writeln!(
@@ -191,6 +363,34 @@ mod tests {
         assert!((y - 0.80 * PIXELS_PER_M).abs() < 1e-9);
         let (_, up) = px(Vec2::new(0.0, 0.5));
         assert!(up < y);
+    }
+
+    #[test]
+    fn the_floor_is_labelled_and_nearby_collisions_share_a_numbered_mark() {
+        let mut plot = FieldPlot::new(&Field::competition());
+        for text in ["machine A wall", "machine A wall", "beacon B1"] {
+            let at = if text.starts_with("beacon") {
+                Vec2::new(0.5, 0.5)
+            } else {
+                Vec2::new(0.1, 0.1)
+            };
+            plot.collision(at, text);
+        }
+        plot.pick_or_drop(Vec2::ZERO, true, "#d03030");
+        let svg = plot.finish("t");
+        for label in [
+            "incoming warehouse",
+            "machine B",
+            ">I1<",
+            ">O4<",
+            ">B3<",
+            "20 cm",
+        ] {
+            assert!(svg.contains(label), "{label}");
+        }
+        assert!(svg.contains("1: machine A wall (×2)"), "{svg}");
+        assert!(svg.contains("2: beacon B1"));
+        assert!(!svg.contains(">3<"), "two marks, not three");
     }
 
     #[test]

@@ -23,6 +23,9 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::time_split::{TimeSplit, TimeSplitTap};
+use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
+use crate::devices::realtime::Paced;
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -31,6 +34,7 @@ use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
+use ratf_core::planning::bound::{BoundError, RoundBound};
 use ratf_core::planning::tasks::{Rules, TaskError};
 use ratf_core::runtime::{
     Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
@@ -124,6 +128,8 @@ pub struct RoundReport {
     /// Inputs the core consumed.
     #[serde(skip)]
     pub inputs: u64,
+    /// Where the time from the part list to the last placement went.
+    pub time_split: TimeSplit,
 }
 
 /// Why a round could not run.
@@ -150,6 +156,9 @@ pub enum RoundError {
     /// The calibration before a calibrated round failed.
     #[error(transparent)]
     Calibration(#[from] CalibrateError),
+    /// The lower bound of a round could not be computed.
+    #[error("lower bound: {0}")]
+    Bound(#[from] BoundError),
 }
 
 /// How a round is run.
@@ -349,6 +358,18 @@ pub fn run_with_taps(
     run_in_world(config, config, options, taps, on_event)
 }
 
+/// What a round watched by a person adds (`ratf sim --hmi`): the operator's commands, wall
+/// clock pacing and a way to end the round early.
+#[derive(Default)]
+pub struct Live<'a> {
+    /// Commands from the HMI, joined into the world's inputs (so they are recorded).
+    pub operator: Option<OperatorReceiver>,
+    /// Robot seconds per wall second (`Some(1.0)`: real time); `None`: as fast as possible.
+    pub speed: Option<f64>,
+    /// Asked after every world step: true ends the round now (the operator chose another).
+    pub abort: Option<&'a dyn Fn() -> bool>,
+}
+
 /// Run a round in the world drawn for `world` (the configuration the team wrote, with the
 /// seed's errors) with a robot that believes `robot` (e.g. `world` after `ratf calibrate`:
 /// calibrating changes what the robot believes, not the hall).
@@ -357,6 +378,18 @@ pub fn run_in_world(
     robot: &Config,
     options: &RoundOptions,
     taps: &mut [&mut dyn Tap],
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    run_live(world, robot, options, taps, Live::default(), on_event)
+}
+
+/// [`run_in_world`] with a person watching: see [`Live`].
+pub fn run_live(
+    world: &Config,
+    robot: &Config,
+    options: &RoundOptions,
+    taps: &mut [&mut dyn Tap],
+    live: Live<'_>,
     mut on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
     let RoundOptions {
@@ -386,7 +419,7 @@ pub fn run_in_world(
         green_to_blue_at_a: settings.green_to_blue_at_a,
         ..Scenario::new(&config)
     };
-    let mut devices = RoundDevices {
+    let round_devices = RoundDevices {
         sim: SimDevices::new(&config, &scenario)?,
         link,
         server,
@@ -406,13 +439,24 @@ pub fn run_in_world(
         skipped: 0,
         events: Vec::new(),
     };
+    // Without an operator the channel's sender is dropped at once: nothing ever arrives.
+    let commands = live.operator.unwrap_or_else(|| operator_channel().1);
+    let mut devices = WithOperator::new(Paced::new(round_devices, live.speed), commands);
+    let abort = live.abort;
     let mut core = Core::new(&robot_config, scenario.start_pose)?;
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut last_batches = 0;
     let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
     let mut finished_at_us: Option<u64> = None;
-    let summary = run(&mut core, &mut devices, taps, |core, devices| {
+    let mut time_split = TimeSplitTap::new(&robot_config);
+    let mut all_taps: Vec<&mut dyn Tap> = Vec::with_capacity(taps.len() + 1);
+    for tap in taps.iter_mut() {
+        all_taps.push(&mut **tap);
+    }
+    all_taps.push(&mut time_split);
+    let summary = run(&mut core, &mut devices, &mut all_taps, |core, devices| {
+        let devices = devices.inner_mut().inner_mut();
         for event in devices.events.drain(..) {
             on_event(&event);
         }
@@ -445,12 +489,13 @@ pub fn run_in_world(
             finished_at_us.get_or_insert(now_us);
         }
         let settled = finished_at_us.is_some_and(|at| now_us >= at + SETTLE_AFTER_FINISH_US);
-        if settled || now_us >= limit_us {
+        if settled || now_us >= limit_us || abort.is_some_and(|abort| abort()) {
             Flow::Stop
         } else {
             Flow::Continue
         }
     })?;
+    let devices = devices.inner_mut().inner_mut();
     devices.settle_floor();
     for event in devices.events.drain(..) {
         on_event(&event);
@@ -483,6 +528,13 @@ pub fn run_in_world(
         })
         .collect();
     let started_s = core.brain().started_at_us().map(|us| us as f64 * 1e-6);
+    drop(all_taps);
+    let time_split = core
+        .brain()
+        .started_at_us()
+        .map_or_else(TimeSplit::default, |from| {
+            time_split.split(from, devices.last_point_us)
+        });
     Ok(RoundReport {
         final_parts,
         round,
@@ -500,6 +552,7 @@ pub fn run_in_world(
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
+        time_split,
     })
 }
 
@@ -509,6 +562,18 @@ pub fn run_recorded(
     config: &Config,
     options: &RoundOptions,
     path: &Path,
+    on_event: impl FnMut(&RoundEvent),
+) -> Result<RoundReport, RoundError> {
+    run_recorded_live(config, options, path, &mut [], Live::default(), on_event)
+}
+
+/// [`run_recorded`] with more taps (the HMI) and a person watching (see [`Live`]).
+pub fn run_recorded_live(
+    config: &Config,
+    options: &RoundOptions,
+    path: &Path,
+    taps: &mut [&mut dyn Tap],
+    live: Live<'_>,
     on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
     let applied = options.apply_to(config);
@@ -524,7 +589,9 @@ pub fn run_recorded(
         version: env!("CARGO_PKG_VERSION").to_owned(),
     };
     let mut recorder = Recorder::create(path, &session).map_err(Box::new)?;
-    let report = run_with_taps(config, options, &mut [&mut recorder], on_event)?;
+    let mut all: Vec<&mut dyn Tap> = vec![&mut recorder];
+    all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
+    let report = run_live(config, config, options, &mut all, live, on_event)?;
     recorder.finish().map_err(Box::new)?;
     Ok(report)
 }
@@ -566,6 +633,14 @@ pub struct BenchRow {
     pub timeouts: u32,
     /// Runs.
     pub runs: u32,
+    /// The lower bound on this round's time for each seed's colour arrangement
+    /// ([`RoundBound`]), mean over the seeds, s.
+    pub bound_s: f64,
+    /// Time over bound, mean over the full-score runs (each against its own arrangement's
+    /// bound).
+    pub time_over_bound: f64,
+    /// Where the time went, mean over the full-score runs.
+    pub time_split: TimeSplit,
 }
 
 /// What a rounds benchmark tells as it goes.
@@ -603,8 +678,13 @@ pub fn bench(
         }
         beliefs.insert(seed, believed);
     }
+    let bound = RoundBound::new(config, &Field::competition())?;
     let mut rows = Vec::new();
     for round in 1..=3 {
+        let mut bounds = std::collections::BTreeMap::new();
+        for seed in seeds.clone() {
+            bounds.insert(seed, bound.seconds(round, round_parts(round, seed)?)?);
+        }
         for policy in Policy::ALL {
             let mut row = BenchRow {
                 round,
@@ -615,6 +695,9 @@ pub fn bench(
                 collisions: 0,
                 timeouts: 0,
                 runs: 0,
+                bound_s: bounds.values().sum::<f64>() / bounds.len().max(1) as f64,
+                time_over_bound: 0.0,
+                time_split: TimeSplit::default(),
             };
             let mut full = 0u32;
             for seed in seeds.clone() {
@@ -630,11 +713,15 @@ pub fn bench(
                 if report.points == full_score(round) && report.outgoing == 4 {
                     full += 1;
                     row.mean_time_s += report.time_s;
+                    row.time_over_bound += report.time_s / bounds[&seed];
+                    row.time_split += report.time_split;
                     row.max_time_s = row.max_time_s.max(report.time_s);
                 }
             }
             row.full_score_rate = f64::from(full) / f64::from(row.runs.max(1));
             row.mean_time_s /= f64::from(full.max(1));
+            row.time_over_bound /= f64::from(full.max(1));
+            row.time_split = row.time_split.scaled(1.0 / f64::from(full.max(1)));
             rows.push(row);
         }
     }
@@ -715,6 +802,45 @@ mod tests {
                 assert!(report.time_s > 0.0);
             }
         }
+    }
+
+    #[test]
+    fn the_bench_sets_each_round_against_its_lower_bound_and_splits_its_time() {
+        let config = Config::default();
+        let mut reports = Vec::new();
+        let rows = bench(&config, 1..=1, 0.0, false, |progress| {
+            if let BenchProgress::Run(report) = progress {
+                reports.push(report.clone());
+            }
+        })
+        .unwrap();
+        let bound = RoundBound::new(&config, &Field::competition()).unwrap();
+        for row in &rows {
+            let expected = bound
+                .seconds(row.round, round_parts(row.round, 1).unwrap())
+                .unwrap();
+            assert_eq!(row.bound_s, expected, "{row:?}");
+            let report = reports
+                .iter()
+                .find(|r| r.round == row.round && r.policy == row.policy)
+                .unwrap();
+            assert_eq!(row.full_score_rate, 1.0, "{report:?}");
+            // No run beats the bound, and the ratio is the run's own.
+            assert!(report.time_s > row.bound_s, "{report:?} against {row:?}");
+            assert!((row.time_over_bound - report.time_s / row.bound_s).abs() < 1e-12);
+            // The time split covers the round but the moment before its first tick (≤ 20 ms).
+            let split = report.time_split.total_s();
+            assert!(
+                split <= report.time_s && split >= report.time_s - 0.020 - 1e-9,
+                "{report:?}"
+            );
+            assert!(report.time_split.settling_s > 0.0 && report.time_split.driving_s > 0.0);
+        }
+        let json = serde_json::to_value(&rows).unwrap();
+        assert!(
+            json[0]["bound_s"].as_f64().is_some_and(|b| b > 20.0),
+            "{json}"
+        );
     }
 
     #[test]

@@ -22,6 +22,7 @@ use ratf_core::runtime::{
 
 use crate::devices::lidar::{self, LidarHandle, LidarSettings};
 use crate::devices::mega::{self, MegaHandle, MegaSettings, open_port};
+use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
 use crate::devices::{Clock, DeviceError, LinkStates, RealDevices, Shared, Writers, imu, referee};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::RefereeLink;
@@ -436,6 +437,18 @@ pub fn run_robot(
     options: &RunOptions,
     shared: &Shared,
 ) -> Result<RunReport, RunError> {
+    run_robot_with(config, options, shared, None, &mut [])
+}
+
+/// [`run_robot`] with an operator's commands joined into the inputs (the HMI) and more
+/// taps (the HMI's).
+pub fn run_robot_with(
+    config: &Config,
+    options: &RunOptions,
+    shared: &Shared,
+    operator: Option<OperatorReceiver>,
+    taps: &mut [&mut dyn Tap],
+) -> Result<RunReport, RunError> {
     let initial = options
         .force_start
         .map(|parts| Input::Operator(OperatorCommand::ForceStart { parts }))
@@ -474,15 +487,19 @@ pub fn run_robot(
         terminal: std::io::stderr().is_terminal(),
         last_placed: None,
     };
-    let (operator, commands) = crate::devices::operator::operator_channel();
-    let mut bridge = crate::ros2::live::live_bridge(config, options.ros2.as_ref(), operator)?;
-    let mut devices = crate::devices::operator::WithOperator::new(devices, commands);
-    let mut taps: Vec<&mut dyn Tap> = vec![&mut recorder, &mut status];
-    if let Some(bridge) = bridge.as_mut() {
-        taps.push(bridge.as_mut());
-    }
+    // The live ROS 2 bridge's commands come on a channel of their own.
+    let (ros2_operator, ros2_commands) = operator_channel();
+    let mut bridge = crate::ros2::live::live_bridge(config, options.ros2.as_ref(), ros2_operator)?;
     let cpu_start = cpu_time_s();
-    let result = run(&mut core, &mut devices, &mut taps, |core, _| {
+    // Without an operator the channel's sender is dropped at once: nothing ever arrives.
+    let devices = WithOperator::new(devices, operator.unwrap_or_else(|| operator_channel().1));
+    let mut devices = WithOperator::new(devices, ros2_commands);
+    let mut all: Vec<&mut dyn Tap> = vec![&mut recorder, &mut status];
+    all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
+    if let Some(bridge) = bridge.as_mut() {
+        all.push(bridge.as_mut());
+    }
+    let result = run(&mut core, &mut devices, &mut all, |core, _| {
         if core.brain().phase() == Phase::Finished || shared.quitting() {
             Flow::Stop
         } else {
@@ -529,7 +546,7 @@ pub fn run_robot(
         inputs: result.map_or(0, |s| s.inputs),
         inputs_dropped: shared.inputs_dropped(),
         stop_written,
-        latency: Latency::of(devices.inner().latencies_us()),
+        latency: Latency::of(devices.inner().inner().latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),

@@ -160,6 +160,10 @@ struct RunArgs {
     /// Talk DDS on 127.0.0.1 only.
     #[arg(long, requires = "ros2")]
     ros2_loopback: bool,
+    /// Serve the operator's web page on this address (HOST:PORT, e.g. 0.0.0.0:8080 for the
+    /// robot's Wi-Fi); the URL with the control token is printed.
+    #[arg(long, value_name = "ADDR")]
+    hmi: Option<String>,
 }
 
 #[derive(Debug, Args)]
@@ -203,6 +207,10 @@ struct ReplayArgs {
     /// Print one JSON object with the figures as the last line of stdout.
     #[arg(long)]
     json: bool,
+    /// Serve the operator's web page with a time slider over the recording instead (HOST:PORT,
+    /// e.g. 127.0.0.1:8080); runs until Ctrl-C.
+    #[arg(long, value_name = "ADDR")]
+    hmi: Option<String>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -367,6 +375,18 @@ struct SimArgs {
     /// With --serve-pty: give up if nothing opens DIR/mega within this many seconds.
     #[arg(long, default_value_t = 120.0, requires = "serve_pty")]
     wait_for_robot_s: f64,
+    /// Serve the operator's web page on this address (HOST:PORT, e.g. 127.0.0.1:8080); the
+    /// URL with the control token is printed. After the round the page stays up: choose
+    /// another round there, or press Ctrl-C.
+    #[arg(long, value_name = "ADDR", conflicts_with = "serve_pty")]
+    hmi: Option<String>,
+    /// Run the simulated round at wall-clock speed, so a person can watch it.
+    #[arg(long, conflicts_with = "serve_pty")]
+    realtime: bool,
+    /// The mock server never answers: only a forced start (--force-start-s or the page)
+    /// starts the round.
+    #[arg(long, conflicts_with = "serve_pty")]
+    silent_server: bool,
 }
 
 #[derive(Debug, Args)]
@@ -843,7 +863,107 @@ fn loc_bench_command(
     Ok(())
 }
 
+/// The HMI's side of a simulated round: its tap, the operator's commands and the page's
+/// round choice.
+struct SimHmi<'a> {
+    tap: ratf_host::hmi::tap::HmiTap,
+    operator: ratf_host::devices::operator::OperatorReceiver,
+    rounds: &'a ratf_host::hmi::commands::RoundChoice,
+}
+
 fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
+    use ratf_host::devices::operator::operator_channel;
+    use ratf_host::hmi::commands::{CONTROL_NAMES, RoundChoice};
+    use ratf_host::hmi::server::{Controls, Info, OperatorSlot};
+    use ratf_host::hmi::tap::HmiTap;
+    let Some(address) = &args.hmi else {
+        return sim_round(args, args.round, args.seed, None);
+    };
+    let config = load_config(args.config.as_deref())?;
+    let hub = ratf_host::hmi::hub::Hub::new();
+    let rounds = RoundChoice::default();
+    let slot = OperatorSlot::default();
+    let controls = Controls {
+        operator: Some(slot.clone()),
+        rounds: Some(rounds.clone()),
+        replay: None,
+    };
+    let info = Info {
+        mode: "sim",
+        controls: CONTROL_NAMES
+            .iter()
+            .copied()
+            .filter(|c| !c.starts_with("replay/"))
+            .collect(),
+        duration_s: None,
+        timeline: Vec::new(),
+        round: Some((args.round, args.seed)),
+    };
+    start_hmi(address, &config, hub.clone(), &info, controls)?;
+    let (mut round, mut seed) = (args.round, args.seed);
+    loop {
+        let (sender, operator) = operator_channel();
+        *slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(sender);
+        let mut tap = HmiTap::new(hub.clone(), "sim", &config);
+        tap.round = Some((round, seed));
+        let hmi = SimHmi {
+            tap,
+            operator,
+            rounds: &rounds,
+        };
+        sim_round(args, round, seed, Some(hmi))?;
+        *slot
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = None;
+        if !rounds.pending() {
+            println!("round over: choose another round on the page, or press Ctrl-C to quit");
+        }
+        loop {
+            if let Some(chosen) = rounds.take(std::time::Duration::from_secs(3600)) {
+                (round, seed) = chosen;
+                println!("the page chose round {round}, seed {seed}: restarting");
+                break;
+            }
+        }
+    }
+}
+
+/// Serve the HMI and print its address with the control token.
+fn start_hmi(
+    address: &str,
+    config: &Config,
+    hub: std::sync::Arc<ratf_host::hmi::hub::Hub>,
+    info: &ratf_host::hmi::server::Info,
+    controls: ratf_host::hmi::server::Controls,
+) -> anyhow::Result<ratf_host::hmi::server::HmiServer> {
+    use ratf_host::hmi::{auth::Token, floor::Floor, server};
+    let token = Token::random()?;
+    let floor = Floor::new(config);
+    let server = server::serve(
+        address,
+        token,
+        hub,
+        &floor,
+        config.field.field(),
+        info,
+        controls,
+    )?;
+    println!(
+        "HMI: {} (open it on a phone or laptop on the same network; without ?token=… the \
+         page only watches)",
+        server.control_url()
+    );
+    Ok(server)
+}
+
+fn sim_round(
+    args: &SimArgs,
+    round_number: u8,
+    seed: u64,
+    hmi: Option<SimHmi<'_>>,
+) -> anyhow::Result<()> {
     use ratf_host::apps::drive::PoseRecord;
     use ratf_host::apps::round::{self, RoundEvent};
     let mut config = load_config(args.config.as_deref())?;
@@ -853,92 +973,153 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     let field = Field::competition();
     fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
-    let stem = format!("sim-round{}-seed{}-{}", args.round, args.seed, args.policy);
+    let stem = format!("sim-round{}-seed{}-{}", round_number, seed, args.policy);
     let log_path = args.out.join(format!("{stem}.jsonl"));
     let mut log = JsonLog::create(log_path.clone())?;
     println!(
         "ratf sim: round {}, seed {}, policy {}, machine delay {} s",
-        args.round, args.seed, args.policy, args.machine_delay_s
+        round_number, seed, args.policy, args.machine_delay_s
     );
     let mut truth_path = Vec::new();
     let mut estimate_path = Vec::new();
     let mut collisions = Vec::new();
+    let mut handling = Vec::new();
     let started = Instant::now();
     let options = round::RoundOptions {
         machine_delay_s: args.machine_delay_s,
         force_start_s: args.force_start_s,
-        ..round::RoundOptions::new(args.round, args.seed, args.policy)
+        silent_server: args.silent_server,
+        ..round::RoundOptions::new(round_number, seed, args.policy)
     };
+    let notes = hmi.as_ref().map(|h| h.tap.notes());
+    let note = |t_s: f64, kind: &'static str, text: &str, points: Option<u32>| {
+        if let Some(notes) = &notes {
+            let line = ratf_host::hmi::snapshot::EventLine {
+                t_s,
+                kind,
+                text: text.to_owned(),
+            };
+            notes.push(line, points);
+        }
+    };
+    let rounds = hmi.as_ref().map(|h| h.rounds);
+    let pending = move || rounds.is_some_and(|r| r.pending());
+    let (mut tap, live) = match hmi {
+        Some(SimHmi { tap, operator, .. }) => {
+            let abort: &dyn Fn() -> bool = &pending;
+            (
+                Some(tap),
+                round::Live {
+                    operator: Some(operator),
+                    speed: args.realtime.then_some(1.0),
+                    abort: Some(abort),
+                },
+            )
+        }
+        None => (
+            None,
+            round::Live {
+                operator: None,
+                speed: args.realtime.then_some(1.0),
+                abort: None,
+            },
+        ),
+    };
+    let mut taps: Vec<&mut dyn ratf_core::runtime::Tap> = Vec::new();
+    if let Some(tap) = &mut tap {
+        taps.push(tap);
+    }
     let say = |t_s: f64, text: &str| println!("{t_s:7.2} s  {text}");
     let recording_path = args.out.join(format!("{stem}.mcap"));
-    let report = round::run_recorded(&config, &options, &recording_path, |event| {
-        let line = match event {
-            RoundEvent::Tick {
-                time,
-                truth,
-                estimate,
-            } => {
-                truth_path.push(truth.position());
-                estimate_path.push(estimate.position());
-                serde_json::json!({
-                    "type": "tick",
-                    "t_s": time.as_secs_f64(),
-                    "truth": PoseRecord::from(*truth),
-                    "estimate": PoseRecord::from(*estimate),
-                })
-            }
-            RoundEvent::Core { time, event } => {
-                let text = event.describe(&field);
-                say(time.as_secs_f64(), &text);
-                serde_json::json!({
-                    "type": "event",
-                    "t_s": time.as_secs_f64(),
-                    "text": text,
-                    "event": event,
-                })
-            }
-            RoundEvent::Collision(c) => {
-                collisions.push(*c);
-                let text = format!(
-                    "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
-                    c.with,
-                    c.pose.x,
-                    c.pose.y,
-                    c.pose.yaw_rad.to_degrees()
-                );
-                say(c.time_us as f64 * 1e-6, &text);
-                serde_json::json!({
-                    "type": "collision",
-                    "t_s": c.time_us as f64 * 1e-6,
-                    "text": text,
-                    "pose": PoseRecord::from(c.pose),
-                })
-            }
-            RoundEvent::Points {
-                time,
-                slot,
-                color,
-                total,
-            } => {
-                let text = format!(
-                    "+1: {} on {} ({total} point{})",
-                    color_name(*color),
-                    ratf_core::runtime::slot_name(&field, ratf_core::field::WaypointId(*slot)),
-                    if *total == 1 { "" } else { "s" }
-                );
-                say(time.as_secs_f64(), &text);
-                serde_json::json!({
-                    "type": "points",
-                    "t_s": time.as_secs_f64(),
-                    "text": text,
-                    "slot": slot,
-                    "color": color,
-                    "total": total,
-                })
-            }
-        };
-        log.write(&line);
-    })?;
+    let report = round::run_recorded_live(
+        &config,
+        &options,
+        &recording_path,
+        &mut taps,
+        live,
+        |event| {
+            let line = match event {
+                RoundEvent::Tick {
+                    time,
+                    truth,
+                    estimate,
+                } => {
+                    truth_path.push(truth.position());
+                    estimate_path.push(estimate.position());
+                    serde_json::json!({
+                        "type": "tick",
+                        "t_s": time.as_secs_f64(),
+                        "truth": PoseRecord::from(*truth),
+                        "estimate": PoseRecord::from(*estimate),
+                    })
+                }
+                RoundEvent::Core { time, event } => {
+                    let text = event.describe(&field);
+                    if let Some(&at) = truth_path.last() {
+                        match event {
+                            ratf_core::runtime::Event::Picked { color, .. } => {
+                                handling.push((at, true, *color))
+                            }
+                            ratf_core::runtime::Event::Placed { color, .. } => {
+                                handling.push((at, false, *color))
+                            }
+                            _ => {}
+                        }
+                    }
+                    say(time.as_secs_f64(), &text);
+                    serde_json::json!({
+                        "type": "event",
+                        "t_s": time.as_secs_f64(),
+                        "text": text,
+                        "event": event,
+                    })
+                }
+                RoundEvent::Collision(c) => {
+                    collisions.push(*c);
+                    let text = format!(
+                        "collision with {:?}, robot at ({:.3}, {:.3}) m, {:.0}°",
+                        c.with,
+                        c.pose.x,
+                        c.pose.y,
+                        c.pose.yaw_rad.to_degrees()
+                    );
+                    say(c.time_us as f64 * 1e-6, &text);
+                    note(c.time_us as f64 * 1e-6, "collision", &text, None);
+                    serde_json::json!({
+                        "type": "collision",
+                        "t_s": c.time_us as f64 * 1e-6,
+                        "text": text,
+                        "pose": PoseRecord::from(c.pose),
+                    })
+                }
+                RoundEvent::Points {
+                    time,
+                    slot,
+                    color,
+                    total,
+                } => {
+                    let text = format!(
+                        "+1: {} on {} ({total} point{})",
+                        color_name(*color),
+                        ratf_core::runtime::slot_name(&field, ratf_core::field::WaypointId(*slot)),
+                        if *total == 1 { "" } else { "s" }
+                    );
+                    say(time.as_secs_f64(), &text);
+                    note(time.as_secs_f64(), "points", &text, Some(*total));
+                    serde_json::json!({
+                        "type": "points",
+                        "t_s": time.as_secs_f64(),
+                        "text": text,
+                        "slot": slot,
+                        "color": color,
+                        "total": total,
+                    })
+                }
+            };
+            log.write(&line);
+        },
+    )?;
+    drop(taps);
     let wall_s = started.elapsed().as_secs_f64();
     println!("{}", report.truth);
     log.write(&serde_json::json!({ "type": "truth", "truth": report.truth }));
@@ -950,7 +1131,25 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
     plot.path(&truth_path, "#1f4e9c", false, "ground truth");
     plot.path(&estimate_path, "#e07b00", true, "localiser estimate");
     for c in &collisions {
-        plot.mark(c.pose.position(), "#d01010", &format!("{:?}", c.with));
+        plot.collision(
+            c.pose.position(),
+            &format!("{:?} at {:.1} s", c.with, c.time_us as f64 * 1e-6),
+        );
+    }
+    for &(at, picked, color) in &handling {
+        let fill = match color {
+            Some(ratf_core::field::PartColor::Red) => "#d03030",
+            Some(ratf_core::field::PartColor::Green) => "#30a040",
+            Some(ratf_core::field::PartColor::Blue) => "#3060d0",
+            None => "#888888",
+        };
+        plot.pick_or_drop(at, picked, fill);
+    }
+    if !handling.is_empty() {
+        plot.legend_entry(
+            "#222222",
+            "triangles: picks (up) and drops (down), in the part's colour",
+        );
     }
     for &(color, x, y) in &report.final_parts {
         let fill = match color {
@@ -1013,6 +1212,9 @@ fn replay_command(args: &ReplayArgs) -> anyhow::Result<()> {
     use ratf_host::apps::replay;
     use ratf_host::recording::Recording;
     let recording = Recording::read(&args.file)?;
+    if let Some(address) = &args.hmi {
+        return replay_hmi(address, recording);
+    }
     let other = args.config.as_deref().map(Config::load).transpose()?;
     let field = Field::competition();
     let started = Instant::now();
@@ -1075,6 +1277,38 @@ fn replay_command(args: &ReplayArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `ratf replay FILE --hmi ADDR`: the page with a time slider over the recording.
+fn replay_hmi(address: &str, recording: ratf_host::recording::Recording) -> anyhow::Result<()> {
+    use ratf_host::hmi::commands::CONTROL_NAMES;
+    use ratf_host::hmi::{replay, server};
+    let hub = ratf_host::hmi::hub::Hub::new();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let info = server::Info {
+        mode: "replay",
+        controls: CONTROL_NAMES
+            .iter()
+            .copied()
+            .filter(|c| c.starts_with("replay/"))
+            .collect(),
+        duration_s: Some(replay::duration_s(&recording)),
+        timeline: replay::timeline(&recording),
+        round: None,
+    };
+    let controls = server::Controls {
+        replay: Some(tx),
+        ..Default::default()
+    };
+    let config = recording.config.clone();
+    let _server = start_hmi(address, &config, hub.clone(), &info, controls)?;
+    println!(
+        "replaying {:.1} s of robot time: use the slider, play and the timeline on the page; \
+         Ctrl-C to quit",
+        replay::duration_s(&recording)
+    );
+    replay::play(recording, hub, rx)?;
+    Ok(())
+}
+
 /// A colour as a team says it.
 fn color_name(color: ratf_core::field::PartColor) -> &'static str {
     match color {
@@ -1124,25 +1358,55 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
         );
     }
     println!(
-        "{:<6} {:<9} {:>10} {:>10} {:>10} {:>11} {:>9} {:>5}",
-        "round", "policy", "full score", "mean s", "max s", "collisions", "given up", "runs"
+        "{:<6} {:<9} {:>10} {:>10} {:>10} {:>8} {:>8} {:>11} {:>9} {:>5}",
+        "round",
+        "policy",
+        "full score",
+        "mean s",
+        "max s",
+        "bound s",
+        "÷ bound",
+        "collisions",
+        "given up",
+        "runs"
     );
     for r in &rows {
         println!(
-            "{:<6} {:<9} {:>9.0}% {:>10.1} {:>10.1} {:>11} {:>9} {:>5}",
+            "{:<6} {:<9} {:>9.0}% {:>10.1} {:>10.1} {:>8.1} {:>7.2}× {:>11} {:>9} {:>5}",
             r.round,
             r.policy.name(),
             r.full_score_rate * 100.0,
             r.mean_time_s,
             r.max_time_s,
+            r.bound_s,
+            r.time_over_bound,
             r.collisions,
             r.timeouts,
             r.runs
         );
     }
+    println!("where the time goes, mean s over the full-score runs (ratf_host::apps::time_split):");
+    println!(
+        "{:<6} {:<9} {:>8} {:>8} {:>8} {:>9} {:>8}",
+        "round", "policy", "driving", "turning", "docking", "settling", "waiting"
+    );
+    for r in &rows {
+        let t = &r.time_split;
+        println!(
+            "{:<6} {:<9} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>8.1}",
+            r.round,
+            r.policy.name(),
+            t.driving_s,
+            t.turning_s,
+            t.docking_s,
+            t.settling_s,
+            t.waiting_s
+        );
+    }
     println!(
         "times: from the part list to the last placement, over the full-score runs; machine \
-         delay {} s; {:.1} s wall",
+         delay {} s; bound: the least time physics and the rules allow each seed's arrangement \
+         (ratf_core::planning::bound), mean over the seeds; {:.1} s wall",
         args.machine_delay_s,
         started.elapsed().as_secs_f64()
     );
@@ -1558,7 +1822,36 @@ fn run_command(args: &RunArgs) -> ! {
             cmd_vel: args.ros2_cmd_vel,
         }),
     };
-    let outcome = std::panic::catch_unwind(|| run::run_robot(&config, &options, &shared));
+    let hmi = args.hmi.as_ref().map(|address| {
+        use ratf_host::hmi::{commands::CONTROL_NAMES, server};
+        let hub = ratf_host::hmi::hub::Hub::new();
+        let (sender, receiver) = ratf_host::devices::operator::operator_channel();
+        let info = server::Info {
+            mode: "robot",
+            controls: CONTROL_NAMES
+                .iter()
+                .copied()
+                .filter(|c| !c.starts_with("replay/") && *c != "round")
+                .collect(),
+            duration_s: None,
+            timeline: Vec::new(),
+            round: None,
+        };
+        let controls = server::Controls {
+            operator: Some(std::sync::Arc::new(std::sync::Mutex::new(Some(sender)))),
+            ..Default::default()
+        };
+        let server = start_hmi(address, &config, hub.clone(), &info, controls)
+            .unwrap_or_else(|e| fail(&format!("{e:#}")));
+        let tap = ratf_host::hmi::tap::HmiTap::new(hub, "robot", &config);
+        (server, receiver, tap)
+    });
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| match hmi {
+        Some((_server, receiver, mut tap)) => {
+            run::run_robot_with(&config, &options, &shared, Some(receiver), &mut [&mut tap])
+        }
+        None => run::run_robot(&config, &options, &shared),
+    }));
     let report = match outcome {
         Ok(Ok(report)) => report,
         Ok(Err(e)) => fail(&e.to_string()),

@@ -13,6 +13,7 @@
 //! - [`imu`]: the MPU9255 over I2C, optional, behind [`imu::ImuSource`] so tests can run
 //!   without a bus.
 //! - [`operator`]: commands from the HMI or the ROS 2 bridge joined into any device set.
+//! - [`realtime`]: wall-clock pacing of the simulated world, for watching a round.
 //! - [`open_loop`]: the Mega's open-loop hold (`K` PWM and the magnet resent every tick),
 //!   for `ratf check`.
 //!
@@ -26,6 +27,7 @@ pub mod lidar;
 pub mod mega;
 pub mod open_loop;
 pub mod operator;
+pub mod realtime;
 pub mod referee;
 
 #[cfg(test)]
