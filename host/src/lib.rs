@@ -11,3 +11,4 @@ pub mod plot;
 pub mod pty;
 pub mod recording;
 pub mod referee;
+pub mod ros2;

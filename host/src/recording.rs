@@ -13,6 +13,9 @@
 //! | `/ratf/status` | the core's [`Status`](ratf_core::runtime::Status) | after every host tick |
 //! | `/sim/truth` | [`TruthRecord`]: the true pose | after every host tick, in the simulator |
 //!
+//! Beside them, the same run as ROS 2 messages (`ros2msg` schemas, `cdr` encoding) for
+//! Foxglove and `ros2 bag`: see [`crate::ros2::derive`] for the topics.
+//!
 //! A run killed half-way leaves a file readable up to its last complete chunk.
 
 use std::collections::BTreeMap;
@@ -25,6 +28,9 @@ use serde::{Deserialize, Serialize};
 use ratf_core::config::Config;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::runtime::{Input, Outputs, Stamped, StepView, Tap, Timestamp};
+
+use crate::ros2::msgs::EncodeError;
+use crate::ros2::record::Ros2Channels;
 
 /// Topic of the session record.
 pub const SESSION_TOPIC: &str = "/ratf/session";
@@ -118,6 +124,15 @@ pub enum RecordingError {
         /// The file.
         path: PathBuf,
     },
+    /// A ROS 2 message could not be encoded.
+    #[error("{}: {source}", .path.display())]
+    Ros2 {
+        /// The file.
+        path: PathBuf,
+        /// The encoder's error.
+        #[source]
+        source: EncodeError,
+    },
     /// The session's configuration is not valid.
     #[error("{}: the recorded configuration: {source}", .path.display())]
     Config {
@@ -134,6 +149,7 @@ pub struct Recorder {
     path: PathBuf,
     writer: Option<mcap::Writer<BufWriter<File>>>,
     channels: Channels,
+    ros2: Option<Ros2Channels>,
     inputs: u64,
     sequence: u32,
     error: Option<RecordingError>,
@@ -163,6 +179,12 @@ impl Recorder {
             path: path.to_owned(),
             source,
         };
+        let config = Config::from_toml_str(&session.config_toml).map_err(|source| {
+            RecordingError::Config {
+                path: path.to_owned(),
+                source: Box::new(source),
+            }
+        })?;
         let file = File::create(path).map_err(|source| RecordingError::Io {
             path: path.to_owned(),
             source,
@@ -188,10 +210,12 @@ impl Recorder {
             status: channel(STATUS_TOPIC, "ratf.Status")?,
             truth: channel(TRUTH_TOPIC, "ratf.Truth")?,
         };
+        let ros2 = Ros2Channels::add(&mut writer, &config).map_err(mcap_error)?;
         let mut recorder = Self {
             path: path.to_owned(),
             writer: Some(writer),
             channels,
+            ros2: Some(ros2),
             inputs: 0,
             sequence: 0,
             error: None,
@@ -217,9 +241,6 @@ impl Recorder {
         if self.error.is_some() {
             return;
         }
-        let Some(writer) = self.writer.as_mut() else {
-            return;
-        };
         let data = match serde_json::to_vec(message) {
             Ok(data) => data,
             Err(source) => {
@@ -230,6 +251,16 @@ impl Recorder {
                 return;
             }
         };
+        self.write_bytes(channel_id, time, &data);
+    }
+
+    fn write_bytes(&mut self, channel_id: u16, time: Timestamp, data: &[u8]) {
+        if self.error.is_some() {
+            return;
+        }
+        let Some(writer) = self.writer.as_mut() else {
+            return;
+        };
         let header = mcap::records::MessageHeader {
             channel_id,
             sequence: self.sequence,
@@ -237,7 +268,7 @@ impl Recorder {
             publish_time: time.as_us().saturating_mul(1_000),
         };
         self.sequence = self.sequence.wrapping_add(1);
-        if let Err(source) = writer.write_to_known_channel(&header, &data) {
+        if let Err(source) = writer.write_to_known_channel(&header, data) {
             self.error = Some(RecordingError::Mcap {
                 path: self.path.clone(),
                 source,
@@ -283,6 +314,18 @@ impl Tap for Recorder {
             if let Some(pose) = ground_truth {
                 self.write_truth(input.time, pose);
             }
+        }
+        if let Some(mut ros2) = self.ros2.take() {
+            let written = ros2.on_step(step, |channel, data| {
+                self.write_bytes(channel, input.time, data)
+            });
+            if let Err(source) = written {
+                self.error.get_or_insert(RecordingError::Ros2 {
+                    path: self.path.clone(),
+                    source,
+                });
+            }
+            self.ros2 = Some(ros2);
         }
         self.inputs += 1;
     }

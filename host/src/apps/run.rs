@@ -50,6 +50,9 @@ pub enum RunError {
     /// The recording could not be written.
     #[error("recording: {0}")]
     Recording(#[from] Box<RecordingError>),
+    /// The live ROS 2 bridge could not start.
+    #[error("{0}")]
+    Ros2(#[from] crate::ros2::live::BridgeError),
     /// A thread could not be started.
     #[error("starting the {what} thread: {source}")]
     Thread {
@@ -71,6 +74,8 @@ pub struct RunOptions {
     pub recording: PathBuf,
     /// Status lines per second (0: none).
     pub status_hz: f64,
+    /// The live ROS 2 bridge (`--ros2`), if asked for.
+    pub ros2: Option<crate::ros2::live::BridgeOptions>,
 }
 
 /// How a run ended.
@@ -482,11 +487,18 @@ pub fn run_robot_with(
         terminal: std::io::stderr().is_terminal(),
         last_placed: None,
     };
+    // The live ROS 2 bridge's commands come on a channel of their own.
+    let (ros2_operator, ros2_commands) = operator_channel();
+    let mut bridge = crate::ros2::live::live_bridge(config, options.ros2.as_ref(), ros2_operator)?;
     let cpu_start = cpu_time_s();
     // Without an operator the channel's sender is dropped at once: nothing ever arrives.
-    let mut devices = WithOperator::new(devices, operator.unwrap_or_else(|| operator_channel().1));
+    let devices = WithOperator::new(devices, operator.unwrap_or_else(|| operator_channel().1));
+    let mut devices = WithOperator::new(devices, ros2_commands);
     let mut all: Vec<&mut dyn Tap> = vec![&mut recorder, &mut status];
     all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
+    if let Some(bridge) = bridge.as_mut() {
+        all.push(bridge.as_mut());
+    }
     let result = run(&mut core, &mut devices, &mut all, |core, _| {
         if core.brain().phase() == Phase::Finished || shared.quitting() {
             Flow::Stop
@@ -534,7 +546,7 @@ pub fn run_robot_with(
         inputs: result.map_or(0, |s| s.inputs),
         inputs_dropped: shared.inputs_dropped(),
         stop_written,
-        latency: Latency::of(devices.inner().latencies_us()),
+        latency: Latency::of(devices.inner().inner().latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),

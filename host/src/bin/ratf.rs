@@ -173,6 +173,19 @@ struct RunArgs {
     /// Status lines per second (0: none).
     #[arg(long, default_value_t = 4.0)]
     status_hz: f64,
+    /// Publish the robot live on ROS 2 (DDS domain from ROS_DOMAIN_ID; needs a ratf built
+    /// with `--features ros2`).
+    #[arg(long)]
+    ros2: bool,
+    /// The robot's ROS 2 namespace (e.g. /robot1), for several robots on one domain.
+    #[arg(long, value_name = "NS", default_value = "", requires = "ros2")]
+    ros2_namespace: String,
+    /// Let `cmd_vel` drive the robot (manual mode, 0.5 s deadman); otherwise it is ignored.
+    #[arg(long, requires = "ros2")]
+    ros2_cmd_vel: bool,
+    /// Talk DDS on 127.0.0.1 only.
+    #[arg(long, requires = "ros2")]
+    ros2_loopback: bool,
     /// Serve the operator's web page on this address (HOST:PORT, e.g. 0.0.0.0:8080 for the
     /// robot's Wi-Fi); the URL with the control token is printed.
     #[arg(long, value_name = "ADDR")]
@@ -1971,6 +1984,13 @@ fn run_command(args: &RunArgs) -> ! {
         force_start,
         recording: run::default_recording(&args.out),
         status_hz: args.status_hz,
+        ros2: args.ros2.then(|| ratf_host::ros2::live::BridgeOptions {
+            namespace: args.ros2_namespace.clone(),
+            domain_id: ratf_host::ros2::live::BridgeOptions::domain_from_env()
+                .unwrap_or_else(|e| fail(&e.to_string())),
+            loopback_only: args.ros2_loopback,
+            cmd_vel: args.ros2_cmd_vel,
+        }),
     };
     let hmi = args.hmi.as_ref().map(|address| {
         use ratf_host::hmi::{commands::CONTROL_NAMES, server};
