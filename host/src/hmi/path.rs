@@ -11,6 +11,7 @@ use ratf_core::planning::graph::RoadMap;
 use ratf_core::planning::shortcuts::{Footprint, FreeSpace};
 
 /// Plans routes as the robot's navigator does.
+#[derive(Debug)]
 pub struct PathPlanner {
     config: Config,
     field: Field,

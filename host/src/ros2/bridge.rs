@@ -86,6 +86,7 @@ struct Publishers {
     field: Publisher<MarkerArray>,
     beacons: Publisher<MarkerArray>,
     parts: Publisher<MarkerArray>,
+    path: Publisher<MarkerArray>,
     diagnostics: Publisher<DiagnosticArray>,
 }
 
@@ -191,6 +192,7 @@ impl Bridge {
             field: publisher!(Topic::FieldMarkers, latched_qos()),
             beacons: publisher!(Topic::BeaconMarkers, live_qos()),
             parts: publisher!(Topic::PartMarkers, live_qos()),
+            path: publisher!(Topic::PathMarkers, live_qos()),
             diagnostics: publisher!(Topic::Diagnostics, live_qos()),
         };
         let command_qos = QosProfile::subscription_default()
@@ -268,6 +270,7 @@ impl Bridge {
             Message::TruePose(m) => p.true_pose.publish(m).is_ok(),
             Message::Markers(Topic::FieldMarkers, m) => p.field.publish(m).is_ok(),
             Message::Markers(Topic::BeaconMarkers, m) => p.beacons.publish(m).is_ok(),
+            Message::Markers(Topic::PathMarkers, m) => p.path.publish(m).is_ok(),
             Message::Markers(_, m) => p.parts.publish(m).is_ok(),
             Message::Diagnostics(m) => p.diagnostics.publish(m).is_ok(),
         };

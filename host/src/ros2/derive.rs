@@ -18,19 +18,21 @@
 
 use std::f64::consts::TAU;
 
+use crate::hmi::path::PathPlanner;
 use ratf_core::config::Config;
 use ratf_core::drivers::imu::ImuSample;
 use ratf_core::drivers::x4::scan::Scan;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
+use ratf_core::mission::Activity;
 use ratf_core::planning::tasks::{Place, State};
 use ratf_core::runtime::{Core, DeviceKind, Input, StepView};
 
 use super::frames;
 use super::msgs::diagnostic::{DiagnosticArray, DiagnosticStatus, KeyValue};
 use super::msgs::geometry::{
-    Odometry, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, TfMessage, Twist,
-    TwistWithCovariance, Vector3, planar_covariance,
+    Odometry, Point, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, TfMessage,
+    Twist, TwistWithCovariance, Vector3, planar_covariance,
 };
 use super::msgs::sensor::{Imu, LaserScan};
 use super::msgs::visualization::{Marker, MarkerArray};
@@ -59,13 +61,15 @@ pub enum Topic {
     BeaconMarkers,
     /// `/markers/parts`.
     PartMarkers,
+    /// `/markers/path`.
+    PathMarkers,
     /// `/diagnostics`.
     Diagnostics,
 }
 
 impl Topic {
     /// Every topic.
-    pub const ALL: [Topic; 11] = [
+    pub const ALL: [Topic; 12] = [
         Topic::TfStatic,
         Topic::Tf,
         Topic::Scan,
@@ -76,6 +80,7 @@ impl Topic {
         Topic::FieldMarkers,
         Topic::BeaconMarkers,
         Topic::PartMarkers,
+        Topic::PathMarkers,
         Topic::Diagnostics,
     ];
 
@@ -92,6 +97,7 @@ impl Topic {
             Topic::FieldMarkers => "/markers/field",
             Topic::BeaconMarkers => "/markers/beacons",
             Topic::PartMarkers => "/markers/parts",
+            Topic::PathMarkers => "/markers/path",
             Topic::Diagnostics => "/diagnostics",
         }
     }
@@ -105,9 +111,10 @@ impl Topic {
             Topic::Imu => Imu::TYPE_NAME,
             Topic::Pose => PoseWithCovarianceStamped::TYPE_NAME,
             Topic::TruePose => PoseStamped::TYPE_NAME,
-            Topic::FieldMarkers | Topic::BeaconMarkers | Topic::PartMarkers => {
-                MarkerArray::TYPE_NAME
-            }
+            Topic::FieldMarkers
+            | Topic::BeaconMarkers
+            | Topic::PartMarkers
+            | Topic::PathMarkers => MarkerArray::TYPE_NAME,
             Topic::Diagnostics => DiagnosticArray::TYPE_NAME,
         }
     }
@@ -176,6 +183,8 @@ pub struct Deriver {
     next_slow_us: u64,
     odometry_variance: [f64; 3],
     faults: Vec<(DeviceKind, String)>,
+    planner: PathPlanner,
+    leg: Option<Activity>,
 }
 
 impl Deriver {
@@ -188,6 +197,8 @@ impl Deriver {
             next_slow_us: 0,
             odometry_variance: [0.0; 3],
             faults: Vec::new(),
+            planner: PathPlanner::new(config),
+            leg: None,
         }
     }
 
@@ -237,6 +248,14 @@ impl Deriver {
                     Topic::Tf,
                     frames::dynamic_transforms(stamp, core.pose(), estimation.odometry_pose()),
                 ));
+                let activity = core.brain().activity();
+                if activity != self.leg {
+                    self.leg = activity;
+                    out.push(Message::Markers(
+                        Topic::PathMarkers,
+                        self.path_markers(activity, core.pose(), stamp),
+                    ));
+                }
                 if let Some(truth) = step.ground_truth {
                     out.push(Message::TruePose(PoseStamped {
                         header: Header::new(stamp, frames::MAP),
@@ -442,6 +461,60 @@ impl Deriver {
                     ..Marker::default()
                 }),
         );
+        MarkerArray { markers }
+    }
+
+    /// The route the robot set off on (the navigator's own planner, run from where the
+    /// robot stood when its leg began) and the slot it goes to; a `DELETEALL` first, so
+    /// only the current leg shows.
+    fn path_markers(&self, activity: Option<Activity>, pose: Pose2, stamp: Time) -> MarkerArray {
+        let mut markers = vec![Marker {
+            header: Header::new(stamp, frames::MAP),
+            ns: "path".into(),
+            action: Marker::DELETEALL,
+            ..Marker::default()
+        }];
+        let (slot, dock) = match activity {
+            Some(Activity::ToPick { slot }) => (slot, true),
+            Some(Activity::ToDrop { slot }) => (slot, false),
+            _ => return MarkerArray { markers },
+        };
+        let route = self.planner.route(pose, slot, dock);
+        let color = ColorRgba::rgb(0.55, 0.2, 0.85);
+        markers.push(Marker {
+            header: Header::new(stamp, frames::MAP),
+            ns: "path".into(),
+            id: 0,
+            kind: Marker::LINE_STRIP,
+            pose: Pose::planar(Pose2::default(), 0.0),
+            scale: Vector3 {
+                x: 0.01,
+                y: 0.0,
+                z: 0.0,
+            },
+            color,
+            points: route
+                .iter()
+                .map(|&[x, y]| Point { x, y, z: 0.01 })
+                .collect(),
+            ..Marker::default()
+        });
+        if let Some(target) = self.field.slot_for_waypoint(slot) {
+            markers.push(Marker {
+                header: Header::new(stamp, frames::MAP),
+                ns: "path".into(),
+                id: 1,
+                kind: Marker::SPHERE,
+                pose: Pose::planar(target.pick_pose, 0.02),
+                scale: Vector3 {
+                    x: 0.04,
+                    y: 0.04,
+                    z: 0.04,
+                },
+                color,
+                ..Marker::default()
+            });
+        }
         MarkerArray { markers }
     }
 

@@ -30,6 +30,7 @@ ROS_TOPICS = {
     "/markers/field": "visualization_msgs/msg/MarkerArray",
     "/markers/beacons": "visualization_msgs/msg/MarkerArray",
     "/markers/parts": "visualization_msgs/msg/MarkerArray",
+    "/markers/path": "visualization_msgs/msg/MarkerArray",
     "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
 }
 
@@ -267,6 +268,26 @@ def main(path):
         and all(max(m.color.r, m.color.g, m.color.b) > 0.7 for m in last)
         and parts[-1][1].markers[0].action == 3,
         f"{len(last)} markers, {listed} listed",
+    )
+    legs = [m for _, m in ros["/markers/path"] if len(m.markers) == 3]
+    actions = sum(
+        1 for o in json_msgs["/ratf/output"] for e in o["outputs"].get("events", []) if e["event"] == "action_started"
+    )
+    check(
+        "the planned path: per leg a line ending at its target (one leg to the pick, one to the drop)",
+        actions <= len(legs) <= 2 * actions
+        and all(
+            m.markers[1].type == 4
+            and len(m.markers[1].points) >= 2
+            and m.markers[2].type == 2
+            and math.hypot(
+                m.markers[1].points[-1].x - m.markers[2].pose.position.x,
+                m.markers[1].points[-1].y - m.markers[2].pose.position.y,
+            )
+            < 1e-3
+            for m in legs
+        ),
+        f"{len(legs)} legs, {actions} actions",
     )
     diagnostics = ros["/diagnostics"]
     names = {s.name for s in diagnostics[-1][1].status} if diagnostics else set()
