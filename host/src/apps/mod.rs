@@ -12,3 +12,4 @@ pub mod round;
 pub mod run;
 pub mod scripts;
 pub mod serve_pty;
+pub mod soak;

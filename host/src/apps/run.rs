@@ -14,6 +14,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use ratf_core::config::{Config, ImuDevice};
+use ratf_core::drivers::mega_link::MegaLinkStats;
 use ratf_core::field::Field;
 use ratf_core::referee::protocol::SlotLetters;
 use ratf_core::runtime::{
@@ -70,6 +71,8 @@ pub struct RunOptions {
     pub recording: PathBuf,
     /// Status lines per second (0: none).
     pub status_hz: f64,
+    /// Print the core's events (picked, placed, …) on stdout as they happen.
+    pub print_events: bool,
 }
 
 /// How a run ended.
@@ -156,6 +159,9 @@ pub struct RunReport {
     pub cpu_per_s: f64,
     /// Peak resident memory, KiB.
     pub max_rss_kib: u64,
+    /// The Mega link's counters at the end (batches received, and those it reported lost:
+    /// incomplete, corrupt, out of sequence); `None` if the port was never read.
+    pub mega_link: Option<MegaLinkStats>,
     /// The recording.
     pub recording: PathBuf,
 }
@@ -197,6 +203,7 @@ struct StatusTap {
     last: Instant,
     terminal: bool,
     last_placed: Option<Timestamp>,
+    print_events: bool,
 }
 
 impl StatusTap {
@@ -232,6 +239,9 @@ impl Tap for StatusTap {
         for event in &view.outputs.events {
             if matches!(event, Event::Placed { .. }) {
                 self.last_placed = Some(view.input.time);
+            }
+            if !self.print_events {
+                continue;
             }
             let text = event.describe(&self.field);
             if self.terminal {
@@ -468,6 +478,7 @@ pub fn run_robot(
         last: Instant::now(),
         terminal: std::io::stderr().is_terminal(),
         last_placed: None,
+        print_events: options.print_events,
     };
     let cpu_start = cpu_time_s();
     let result = run(
@@ -526,6 +537,7 @@ pub fn run_robot(
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),
+        mega_link: mega.link_stats(),
         recording,
     })
 }

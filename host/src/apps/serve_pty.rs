@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use ratf_core::config::Config;
+use ratf_core::drivers::mega_link::{MegaLink, MegaLinkConfig};
 use ratf_core::drivers::x4::{Command, CommandDecoder, Received};
 use ratf_core::field::{Field, PartColor};
 use ratf_core::planning::tasks::Rules;
@@ -92,6 +93,10 @@ pub struct ServeReport {
     pub collisions: u32,
     /// Whether a robot ever connected.
     pub connected: bool,
+    /// Complete telemetry batches that entered the Mega's pseudo-terminal (what the robot
+    /// could read; bytes that found the terminal's buffer full are not counted): the truth
+    /// against which a robot's link counts frames lost.
+    pub mega_batches_written: u32,
 }
 
 /// What the serve tells as it goes.
@@ -169,8 +174,8 @@ impl Pty {
     }
 
     /// Send `bytes` to the robot; what does not fit in the terminal's buffer is lost, as
-    /// on a serial line nobody reads.
-    fn write(&mut self, bytes: &[u8]) {
+    /// on a serial line nobody reads. Returns how many bytes (from the start) went in.
+    fn write(&mut self, bytes: &[u8]) -> usize {
         let mut rest = bytes;
         while !rest.is_empty() {
             match self.master.write(rest) {
@@ -180,6 +185,7 @@ impl Pty {
                 Err(_) => break,
             }
         }
+        bytes.len() - rest.len()
     }
 }
 
@@ -246,7 +252,10 @@ pub fn serve(
         world_s: 0.0,
         collisions: 0,
         connected: false,
+        mega_batches_written: 0,
     };
+    // Counts the complete telemetry batches that went into the Mega's terminal.
+    let mut written = MegaLink::new(MegaLinkConfig::default());
     // Wait for the robot: the world is powered up when the Mega's port is opened.
     let waiting = Instant::now();
     while !mega.connected() {
@@ -303,7 +312,8 @@ pub fn serve(
             world.step();
             let to_mega = world.receive_from_mega();
             if mega_up && !to_mega.is_empty() {
-                mega.write(&to_mega);
+                let accepted = mega.write(&to_mega);
+                written.feed(&to_mega[..accepted], world.now_us(), |_| {});
             }
             let to_lidar = world.receive_from_lidar();
             if streaming && lidar_up && !to_lidar.is_empty() {
@@ -355,5 +365,6 @@ pub fn serve(
     }
     report.world_s = world.now_us() as f64 * 1e-6;
     report.collisions = world.stats().collisions;
+    report.mega_batches_written = written.stats().batches;
     Ok(report)
 }
