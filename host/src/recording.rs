@@ -13,7 +13,8 @@
 //! | `/ratf/status` | the core's [`Status`](ratf_core::runtime::Status) | after every host tick |
 //! | `/sim/truth` | [`TruthRecord`]: the true pose | after every host tick, in the simulator |
 //!
-//! A run killed half-way leaves a file readable up to its last complete chunk.
+//! A run killed half-way leaves a file readable up to its last complete chunk; chunks are
+//! [`CHUNK_BYTES`] of messages, a fraction of a second of a round, so little is lost.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -25,6 +26,10 @@ use serde::{Deserialize, Serialize};
 use ratf_core::config::Config;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::runtime::{Input, Outputs, Stamped, StepView, Tap, Timestamp};
+
+/// Uncompressed bytes of messages per MCAP chunk: 64 KiB, about 0.2 s of a round (mcap's
+/// default, 1 MiB, would leave the last few seconds before a crash unreadable).
+pub const CHUNK_BYTES: u64 = 64 * 1024;
 
 /// Topic of the session record.
 pub const SESSION_TOPIC: &str = "/ratf/session";
@@ -169,6 +174,7 @@ impl Recorder {
         })?;
         let mut writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(CHUNK_BYTES))
             .profile("")
             .library(format!("ratf {}", env!("CARGO_PKG_VERSION")))
             .create(BufWriter::new(file))
