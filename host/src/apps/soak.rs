@@ -13,8 +13,10 @@
 //! - telemetry batches: those that entered the Mega's terminal (the world counts them),
 //!   those the robot's link delivered, those it reported lost (incomplete, corrupt, out
 //!   of sequence), and the rest — lost without the link saying so;
-//! - the recording read back: complete (summary and footer), and holding every input the
-//!   core consumed.
+//! - the recording's size; once every round is over, each recording is read back:
+//!   complete (summary and footer), and holding every input the core consumed. (Reading
+//!   them between rounds would put the reader's large buffers into the resident memory
+//!   the soak is watching.)
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
@@ -90,7 +92,8 @@ pub struct SoakOptions {
     pub first_seed: u64,
     /// Folder for the device links (`OUT/dev`) and the recordings.
     pub out: PathBuf,
-    /// Keep every recording (otherwise each is deleted once read back).
+    /// Keep every recording (otherwise each is deleted once read back, after the last
+    /// round).
     pub keep_recordings: bool,
 }
 
@@ -125,9 +128,14 @@ pub struct SoakRound {
     pub batches_reported_lost: u32,
     /// Written, but neither delivered nor reported: lost silently.
     pub batches_unreported_lost: u32,
+    /// The recording.
+    pub recording: PathBuf,
     /// The recording's size, bytes.
     pub recording_bytes: u64,
-    /// The recording read back complete with every consumed input (or why not).
+    /// Inputs the core consumed (the recording must hold them all).
+    pub inputs: u64,
+    /// The recording read back complete with every consumed input (or why not); `Err`
+    /// until it is read, after the last round.
     pub recording_check: Result<(), String>,
 }
 
@@ -253,6 +261,12 @@ pub fn soak(
         on_round(&round);
         rounds.push(round);
     }
+    for round in &mut rounds {
+        round.recording_check = check_recording(&round.recording, round.inputs);
+        if !options.keep_recordings {
+            let _ = std::fs::remove_file(&round.recording);
+        }
+    }
     Ok(SoakReport {
         rounds,
         wall_s: started.elapsed().as_secs_f64(),
@@ -352,10 +366,6 @@ fn one_round(
             )
         });
         let recording_bytes = std::fs::metadata(&run.recording).map_or(0, |m| m.len());
-        let recording_check = check_recording(&run.recording, run.inputs);
-        if !options.keep_recordings {
-            let _ = std::fs::remove_file(&run.recording);
-        }
         Ok(SoakRound {
             index,
             seed,
@@ -373,8 +383,10 @@ fn one_round(
             batches_unreported_lost: served
                 .mega_batches_written
                 .saturating_sub(received.saturating_add(reported)),
+            recording: run.recording,
             recording_bytes,
-            recording_check,
+            inputs: run.inputs,
+            recording_check: Err("not read back yet".to_owned()),
         })
     })
 }
@@ -432,7 +444,9 @@ mod tests {
             batches_received: 99,
             batches_reported_lost: 1,
             batches_unreported_lost: 0,
+            recording: PathBuf::from("r.mcap"),
             recording_bytes: 1,
+            inputs: 1,
             recording_check: Ok(()),
         }
     }

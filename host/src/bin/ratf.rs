@@ -1651,7 +1651,7 @@ fn soak_command(args: &SoakArgs) -> ! {
     );
     let report = soak::soak(&config, &options, &shared, |round| {
         println!(
-            "{:5} {:5} {:7.0}  {:8} {:6} {:6} {:8} {:7} {:7} {:7}  {}/{}/{}/{}  {} KiB {}",
+            "{:5} {:5} {:7.0}  {:8} {:6} {:6} {:8} {:7} {:7} {:7}  {}/{}/{}/{}  {} KiB",
             round.index,
             round.seed,
             round.at_s,
@@ -1667,10 +1667,6 @@ fn soak_command(args: &SoakArgs) -> ! {
             round.batches_reported_lost,
             round.batches_unreported_lost,
             round.recording_bytes / 1024,
-            match &round.recording_check {
-                Ok(()) => "complete".to_owned(),
-                Err(why) => why.clone(),
-            }
         );
     })
     .unwrap_or_else(|e| {
