@@ -326,28 +326,16 @@ impl Recording {
 
     /// Parse the bytes of a recording (`path` names it in errors).
     pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Self, RecordingError> {
-        let stream = mcap::MessageStream::new(bytes).map_err(|source| RecordingError::Mcap {
-            path: path.to_owned(),
-            source,
-        })?;
         let mut session: Option<Session> = None;
         let mut inputs = Vec::new();
         let mut outputs = Vec::new();
         let mut poses = Vec::new();
         let mut truth = Vec::new();
-        let mut truncated = false;
-        for message in stream {
-            let Ok(message) = message else {
-                truncated = true;
-                break;
-            };
-            let topic = message.channel.topic.as_str();
-            let data = &message.data;
-            let index = u64::from(message.sequence);
+        let end = crate::mcap_read::for_each_message(bytes, |topic, sequence, data| {
             let decode_error = |source| RecordingError::Decode {
                 path: path.to_owned(),
                 topic: topic.to_owned(),
-                index,
+                index: u64::from(sequence),
                 source,
             };
             match topic {
@@ -360,7 +348,9 @@ impl Recording {
                 TRUTH_TOPIC => truth.push(serde_json::from_slice(data).map_err(decode_error)?),
                 _ => {}
             }
-        }
+            Ok(())
+        })?;
+        let truncated = end == crate::mcap_read::End::Truncated;
         if truncated {
             // Its outputs may have been in the chunk that was lost.
             inputs.pop();
