@@ -12,7 +12,8 @@
 //! - the latency from an input's arrival to its references written (p50, p99, max);
 //! - telemetry batches: those that entered the Mega's terminal (the world counts them),
 //!   those the robot's link delivered, those it reported lost (incomplete, corrupt, out
-//!   of sequence), and the rest — lost without the link saying so;
+//!   of sequence), the one the world may write as the robot stops reading at the end
+//!   ([`END_OF_ROUND_UNREAD`]), and the rest — lost without the link saying so;
 //! - the recording's size; once every round is over, each recording is read back:
 //!   complete (summary and footer), and holding every input the core consumed. (Reading
 //!   them between rounds would put the reader's large buffers into the resident memory
@@ -35,6 +36,11 @@ const WAIT_FOR_ROBOT_S: f64 = 30.0;
 
 /// How long to wait for the served world's device files and server, s.
 const READY_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// Telemetry batches the world may write that the robot never reads, at the end of a round:
+/// the robot's Mega thread stops reading when its run ends, and the world stops writing only
+/// when it sees that, so the batch of the last control period (20 ms) may be left unread.
+pub const END_OF_ROUND_UNREAD: u32 = 1;
 
 /// Resident memory growth after the first round a soak accepts, KiB (issue 17: ≤ 1 MiB).
 pub const RSS_GROWTH_LIMIT_KIB: u64 = 1024;
@@ -126,7 +132,11 @@ pub struct SoakRound {
     pub batches_received: u32,
     /// Batches the link reported lost (incomplete, corrupt, out of sequence, overflowed).
     pub batches_reported_lost: u32,
-    /// Written, but neither delivered nor reported: lost silently.
+    /// Written in the robot's last control period and not read before it stopped reading
+    /// (at most [`END_OF_ROUND_UNREAD`]).
+    pub batches_unread_at_end: u32,
+    /// Written, but neither delivered, nor reported, nor left unread at the end: lost
+    /// silently.
     pub batches_unreported_lost: u32,
     /// The recording.
     pub recording: PathBuf,
@@ -366,6 +376,10 @@ fn one_round(
             )
         });
         let recording_bytes = std::fs::metadata(&run.recording).map_or(0, |m| m.len());
+        let unaccounted = served
+            .mega_batches_written
+            .saturating_sub(received.saturating_add(reported));
+        let unread_at_end = unaccounted.min(END_OF_ROUND_UNREAD);
         Ok(SoakRound {
             index,
             seed,
@@ -380,9 +394,8 @@ fn one_round(
             batches_written: served.mega_batches_written,
             batches_received: received,
             batches_reported_lost: reported,
-            batches_unreported_lost: served
-                .mega_batches_written
-                .saturating_sub(received.saturating_add(reported)),
+            batches_unread_at_end: unread_at_end,
+            batches_unreported_lost: unaccounted - unread_at_end,
             recording: run.recording,
             recording_bytes,
             inputs: run.inputs,
@@ -443,6 +456,7 @@ mod tests {
             batches_written: 100,
             batches_received: 99,
             batches_reported_lost: 1,
+            batches_unread_at_end: 0,
             batches_unreported_lost: 0,
             recording: PathBuf::from("r.mcap"),
             recording_bytes: 1,

@@ -1647,11 +1647,11 @@ fn soak_command(args: &SoakArgs) -> ! {
     );
     println!(
         "round  seed  wall s  outcome   placed points  RSS KiB  p50 µs  p99 µs  max µs  \
-         batches written/received/reported/silent  recording"
+         batches written/received/reported/unread at end/silent  recording"
     );
     let report = soak::soak(&config, &options, &shared, |round| {
         println!(
-            "{:5} {:5} {:7.0}  {:8} {:6} {:6} {:8} {:7} {:7} {:7}  {}/{}/{}/{}  {} KiB",
+            "{:5} {:5} {:7.0}  {:8} {:6} {:6} {:8} {:7} {:7} {:7}  {}/{}/{}/{}/{}  {} KiB",
             round.index,
             round.seed,
             round.at_s,
@@ -1665,6 +1665,7 @@ fn soak_command(args: &SoakArgs) -> ! {
             round.batches_written,
             round.batches_received,
             round.batches_reported_lost,
+            round.batches_unread_at_end,
             round.batches_unreported_lost,
             round.recording_bytes / 1024,
         );
@@ -1724,6 +1725,7 @@ fn soak_command(args: &SoakArgs) -> ! {
                     "batches_written": r.batches_written,
                     "batches_received": r.batches_received,
                     "batches_reported_lost": r.batches_reported_lost,
+                    "batches_unread_at_end": r.batches_unread_at_end,
                     "batches_unreported_lost": r.batches_unreported_lost,
                     "recording_bytes": r.recording_bytes,
                     "recording_complete": r.recording_check.is_ok(),
