@@ -176,6 +176,32 @@ pub enum SkipReason {
     Stuck,
 }
 
+/// What the mission is doing now, for displays and for accounting where a round's time goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "activity", rename_all = "snake_case")]
+pub enum Activity {
+    /// Asking the planner (or waiting until a machine's output is ready).
+    Planning,
+    /// Driving to the part at `slot`, docking at the end.
+    ToPick {
+        /// The slot's waypoint.
+        slot: WaypointId,
+    },
+    /// Magnet on, waiting for the part to be held.
+    Gripping,
+    /// Reversing out of a slot.
+    BackingOut,
+    /// Carrying a part to `slot`.
+    ToDrop {
+        /// The slot's waypoint.
+        slot: WaypointId,
+    },
+    /// Magnet off, waiting for the part to settle.
+    Releasing,
+    /// Nothing left to do.
+    Finished,
+}
+
 /// The mission's state.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum State {
@@ -318,6 +344,19 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     /// the planner last knew it and the server's view of it can still correct the plan.
     pub fn is_before_pick(&self) -> bool {
         matches!(self.state, State::Idle | State::ToPick { .. })
+    }
+
+    /// What the mission is doing now.
+    pub fn activity(&self) -> Activity {
+        match self.state {
+            State::Idle => Activity::Planning,
+            State::ToPick { action, .. } => Activity::ToPick { slot: action.pick },
+            State::Gripping { .. } => Activity::Gripping,
+            State::BackingOut { .. } => Activity::BackingOut,
+            State::ToDrop { action, .. } => Activity::ToDrop { slot: action.drop },
+            State::Releasing { .. } => Activity::Releasing,
+            State::Finished => Activity::Finished,
+        }
     }
 
     /// True once every action is done.
@@ -698,6 +737,36 @@ mod tests {
         assert_eq!(m.actions().outcomes, [(A, true)]);
         assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
         assert!(m.is_finished());
+    }
+
+    #[test]
+    fn the_activity_follows_a_pick_and_place_in_order() {
+        let mut m = mission(vec![A]);
+        let mut seen: Vec<Activity> = vec![m.activity()];
+        let mut pose = Pose2::default();
+        for k in 0..200u64 {
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || m.solenoid_on;
+            let out = m.tick(k * 20_000, pose, pressed);
+            pose.x += out.twist.vx_m_s * 0.02;
+            if seen.last() != Some(&m.activity()) {
+                seen.push(m.activity());
+            }
+        }
+        assert_eq!(
+            seen,
+            [
+                Activity::Planning,
+                Activity::ToPick { slot: A.pick },
+                Activity::Gripping,
+                Activity::BackingOut,
+                Activity::ToDrop { slot: A.drop },
+                Activity::Releasing,
+                Activity::BackingOut,
+                Activity::Planning,
+                Activity::Finished,
+            ]
+        );
     }
 
     #[test]

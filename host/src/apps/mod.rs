@@ -1,6 +1,6 @@
 //! Apps built on the core and the simulated world: a whole round ([`round`]), the velocity
-//! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`]) and the
-//! replay of a recording ([`replay`]).
+//! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`]; where a
+//! round's time goes: [`time_split`]) and the replay of a recording ([`replay`]).
 
 pub mod calibrate;
 pub mod check;
@@ -13,3 +13,4 @@ pub mod run;
 pub mod scripts;
 pub mod serve_pty;
 pub mod soak;
+pub mod time_split;

@@ -23,6 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::time_split::{TimeSplit, TimeSplitTap};
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
@@ -31,6 +32,7 @@ use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
+use ratf_core::planning::bound::{BoundError, RoundBound};
 use ratf_core::planning::tasks::{Rules, TaskError};
 use ratf_core::runtime::{
     Core, Devices, Event, Flow, Input, OperatorCommand, Outputs, Stamped, Tap, Timestamp, run,
@@ -124,6 +126,8 @@ pub struct RoundReport {
     /// Inputs the core consumed.
     #[serde(skip)]
     pub inputs: u64,
+    /// Where the time from the part list to the last placement went.
+    pub time_split: TimeSplit,
 }
 
 /// Why a round could not run.
@@ -150,6 +154,9 @@ pub enum RoundError {
     /// The calibration before a calibrated round failed.
     #[error(transparent)]
     Calibration(#[from] CalibrateError),
+    /// The lower bound of a round could not be computed.
+    #[error("lower bound: {0}")]
+    Bound(#[from] BoundError),
 }
 
 /// How a round is run.
@@ -412,7 +419,13 @@ pub fn run_in_world(
     let mut last_batches = 0;
     let limit_us = (ROUND_LIMIT_S * 1e6) as u64;
     let mut finished_at_us: Option<u64> = None;
-    let summary = run(&mut core, &mut devices, taps, |core, devices| {
+    let mut time_split = TimeSplitTap::new(&robot_config);
+    let mut all_taps: Vec<&mut dyn Tap> = Vec::with_capacity(taps.len() + 1);
+    for tap in taps.iter_mut() {
+        all_taps.push(&mut **tap);
+    }
+    all_taps.push(&mut time_split);
+    let summary = run(&mut core, &mut devices, &mut all_taps, |core, devices| {
         for event in devices.events.drain(..) {
             on_event(&event);
         }
@@ -483,6 +496,13 @@ pub fn run_in_world(
         })
         .collect();
     let started_s = core.brain().started_at_us().map(|us| us as f64 * 1e-6);
+    drop(all_taps);
+    let time_split = core
+        .brain()
+        .started_at_us()
+        .map_or_else(TimeSplit::default, |from| {
+            time_split.split(from, devices.last_point_us)
+        });
     Ok(RoundReport {
         final_parts,
         round,
@@ -500,6 +520,7 @@ pub fn run_in_world(
         pos_rmse_m: (pos_sq / n).sqrt(),
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
+        time_split,
     })
 }
 
@@ -566,6 +587,14 @@ pub struct BenchRow {
     pub timeouts: u32,
     /// Runs.
     pub runs: u32,
+    /// The lower bound on this round's time for each seed's colour arrangement
+    /// ([`RoundBound`]), mean over the seeds, s.
+    pub bound_s: f64,
+    /// Time over bound, mean over the full-score runs (each against its own arrangement's
+    /// bound).
+    pub time_over_bound: f64,
+    /// Where the time went, mean over the full-score runs.
+    pub time_split: TimeSplit,
 }
 
 /// What a rounds benchmark tells as it goes.
@@ -603,8 +632,13 @@ pub fn bench(
         }
         beliefs.insert(seed, believed);
     }
+    let bound = RoundBound::new(config, &Field::competition())?;
     let mut rows = Vec::new();
     for round in 1..=3 {
+        let mut bounds = std::collections::BTreeMap::new();
+        for seed in seeds.clone() {
+            bounds.insert(seed, bound.seconds(round, round_parts(round, seed)?)?);
+        }
         for policy in Policy::ALL {
             let mut row = BenchRow {
                 round,
@@ -615,6 +649,9 @@ pub fn bench(
                 collisions: 0,
                 timeouts: 0,
                 runs: 0,
+                bound_s: bounds.values().sum::<f64>() / bounds.len().max(1) as f64,
+                time_over_bound: 0.0,
+                time_split: TimeSplit::default(),
             };
             let mut full = 0u32;
             for seed in seeds.clone() {
@@ -630,11 +667,15 @@ pub fn bench(
                 if report.points == full_score(round) && report.outgoing == 4 {
                     full += 1;
                     row.mean_time_s += report.time_s;
+                    row.time_over_bound += report.time_s / bounds[&seed];
+                    row.time_split += report.time_split;
                     row.max_time_s = row.max_time_s.max(report.time_s);
                 }
             }
             row.full_score_rate = f64::from(full) / f64::from(row.runs.max(1));
             row.mean_time_s /= f64::from(full.max(1));
+            row.time_over_bound /= f64::from(full.max(1));
+            row.time_split = row.time_split.scaled(1.0 / f64::from(full.max(1)));
             rows.push(row);
         }
     }
@@ -715,6 +756,45 @@ mod tests {
                 assert!(report.time_s > 0.0);
             }
         }
+    }
+
+    #[test]
+    fn the_bench_sets_each_round_against_its_lower_bound_and_splits_its_time() {
+        let config = Config::default();
+        let mut reports = Vec::new();
+        let rows = bench(&config, 1..=1, 0.0, false, |progress| {
+            if let BenchProgress::Run(report) = progress {
+                reports.push(report.clone());
+            }
+        })
+        .unwrap();
+        let bound = RoundBound::new(&config, &Field::competition()).unwrap();
+        for row in &rows {
+            let expected = bound
+                .seconds(row.round, round_parts(row.round, 1).unwrap())
+                .unwrap();
+            assert_eq!(row.bound_s, expected, "{row:?}");
+            let report = reports
+                .iter()
+                .find(|r| r.round == row.round && r.policy == row.policy)
+                .unwrap();
+            assert_eq!(row.full_score_rate, 1.0, "{report:?}");
+            // No run beats the bound, and the ratio is the run's own.
+            assert!(report.time_s > row.bound_s, "{report:?} against {row:?}");
+            assert!((row.time_over_bound - report.time_s / row.bound_s).abs() < 1e-12);
+            // The time split covers the round but the moment before its first tick (≤ 20 ms).
+            let split = report.time_split.total_s();
+            assert!(
+                split <= report.time_s && split >= report.time_s - 0.020 - 1e-9,
+                "{report:?}"
+            );
+            assert!(report.time_split.settling_s > 0.0 && report.time_split.driving_s > 0.0);
+        }
+        let json = serde_json::to_value(&rows).unwrap();
+        assert!(
+            json[0]["bound_s"].as_f64().is_some_and(|b| b > 20.0),
+            "{json}"
+        );
     }
 
     #[test]

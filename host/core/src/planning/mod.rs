@@ -1,6 +1,9 @@
-//! Planning: paths on the waypoint graph with free-space shortcuts ([`graph`],
+//! Planning: a lower bound on a round's time ([`bound`]); shortest paths for a disc in free
+//! space ([`disc_paths`]); paths on the waypoint graph with free-space shortcuts ([`graph`],
 //! [`shortcuts`]) and the order of the competition's actions ([`tasks`]).
 
+pub mod bound;
+pub mod disc_paths;
 pub mod graph;
 pub mod shortcuts;
 pub mod tasks;

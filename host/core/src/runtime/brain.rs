@@ -10,7 +10,7 @@ use crate::config::{Config, Policy};
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
-use crate::mission::{Mission, MissionConfig, MissionEvent};
+use crate::mission::{Activity, Mission, MissionConfig, MissionEvent};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
     Timing,
@@ -119,6 +119,11 @@ impl Brain {
     /// When the part list came (the round's clock started), µs.
     pub fn started_at_us(&self) -> Option<u64> {
         self.started_at_us
+    }
+
+    /// What the mission is doing, once running.
+    pub fn activity(&self) -> Option<Activity> {
+        self.mission.as_ref().map(|m| m.activity())
     }
 
     /// The task planner behind the mission, once running.

@@ -1,0 +1,323 @@
+//! The bound's exact search over every legal order of picks and drops: a shortest path
+//! (Dijkstra) over states "where the robot stands, where each part is and what colour it
+//! has", each step one leg and one pick or drop.
+
+use std::collections::{BinaryHeap, HashMap};
+use std::fmt;
+
+use crate::field::{MachineKind, PartColor};
+use crate::planning::tasks::model::Rules;
+use crate::referee::protocol::SlotLetters;
+
+use super::MotionLimits;
+
+/// Machine rows in the bound's order: A upper, A lower, B upper, B lower.
+const ROWS: [MachineKind; 4] = [
+    MachineKind::A,
+    MachineKind::A,
+    MachineKind::B,
+    MachineKind::B,
+];
+
+/// A place the robot stops at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Station {
+    /// The start pose.
+    Start,
+    /// Facing incoming slot `i` (0..3, increasing x).
+    Incoming(usize),
+    /// Facing outgoing slot `i`.
+    Outgoing(usize),
+    /// Facing machine row `r`'s input (0 = A upper, 1 = A lower, 2 = B upper, 3 = B lower).
+    MachineInput(usize),
+    /// Facing machine row `r`'s output.
+    MachineOutput(usize),
+}
+
+impl fmt::Display for Station {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let row = |r: usize| {
+            let kind = if ROWS[r] == MachineKind::A { 'A' } else { 'B' };
+            let level = if r.is_multiple_of(2) {
+                "upper"
+            } else {
+                "lower"
+            };
+            format!("machine {kind} {level} row")
+        };
+        match *self {
+            Self::Start => f.write_str("start pose"),
+            Self::Incoming(i) => write!(f, "incoming slot {}", i + 1),
+            Self::Outgoing(i) => write!(f, "outgoing slot {}", i + 1),
+            Self::MachineInput(r) => write!(f, "{} input", row(r)),
+            Self::MachineOutput(r) => write!(f, "{} output", row(r)),
+        }
+    }
+}
+
+/// The stations, indexed as the leg-time matrix is.
+#[derive(Clone, Debug)]
+pub struct Places {
+    stations: Vec<Station>,
+}
+
+impl Places {
+    /// Stations in matrix order.
+    pub fn new(stations: Vec<Station>) -> Self {
+        Self { stations }
+    }
+
+    /// The stations in matrix order.
+    pub fn stations(&self) -> &[Station] {
+        &self.stations
+    }
+
+    fn index(&self, station: Station) -> Option<u8> {
+        self.stations
+            .iter()
+            .position(|s| *s == station)
+            .map(|i| i as u8)
+    }
+}
+
+/// Where a part is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Where {
+    Incoming(u8),
+    Carried,
+    /// On machine row `r`'s output, already turned.
+    Output(u8),
+    Delivered(u8),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct Part {
+    at: Where,
+    color: PartColor,
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct State {
+    /// Index into [`Places::stations`].
+    robot: u8,
+    parts: Vec<Part>,
+}
+
+impl State {
+    fn carried(&self) -> Option<usize> {
+        self.parts.iter().position(|p| p.at == Where::Carried)
+    }
+
+    fn occupied(&self, at: Where) -> bool {
+        self.parts.iter().any(|p| p.at == at)
+    }
+
+    fn done(&self) -> bool {
+        self.parts
+            .iter()
+            .all(|p| matches!(p.at, Where::Delivered(_)))
+    }
+}
+
+/// The least time from the start to every part delivered, s (`None` when no legal order
+/// exists or a station is missing): legs from `legs_s` (row-major over `places`), a settle
+/// at each pick and drop but the last.
+pub fn search(
+    places: &Places,
+    legs_s: &[f64],
+    limits: &MotionLimits,
+    rules: Rules,
+    parts: SlotLetters,
+) -> Option<f64> {
+    let n = places.stations.len();
+    let start = State {
+        robot: places.index(Station::Start)?,
+        parts: parts
+            .iter()
+            .enumerate()
+            .filter_map(|(i, color)| {
+                color.map(|color| Part {
+                    at: Where::Incoming(i as u8),
+                    color,
+                })
+            })
+            .collect(),
+    };
+    let mut best: HashMap<State, f64> = HashMap::from([(start.clone(), 0.0)]);
+    let mut queue = BinaryHeap::from([Entry(0.0, start)]);
+    while let Some(Entry(time, state)) = queue.pop() {
+        if best.get(&state).is_some_and(|&b| time > b) {
+            continue;
+        }
+        if state.done() {
+            return Some(if state.parts.is_empty() {
+                0.0
+            } else {
+                time - limits.release_settle_s
+            });
+        }
+        for (station, next, settle) in moves(places, rules, &state) {
+            let Some(to) = places.index(station) else {
+                continue;
+            };
+            let leg = legs_s[usize::from(state.robot) * n + usize::from(to)];
+            let candidate = time + leg + settle(limits);
+            let next = State { robot: to, ..next };
+            if best.get(&next).is_none_or(|&b| candidate < b) {
+                best.insert(next.clone(), candidate);
+                queue.push(Entry(candidate, next));
+            }
+        }
+    }
+    None
+}
+
+type Settle = fn(&MotionLimits) -> f64;
+
+/// Every pick or drop possible from `state`: where the robot goes, the state after (robot
+/// not yet moved) and the dwell there.
+fn moves(places: &Places, rules: Rules, state: &State) -> Vec<(Station, State, Settle)> {
+    let mut moves = Vec::new();
+    let with = |part: usize, at: Where, color: PartColor| {
+        let mut next = state.clone();
+        next.parts[part] = Part { at, color };
+        next
+    };
+    match state.carried() {
+        None => {
+            for (i, part) in state.parts.iter().enumerate() {
+                let station = match part.at {
+                    Where::Incoming(slot) => Station::Incoming(usize::from(slot)),
+                    Where::Output(row) => Station::MachineOutput(usize::from(row)),
+                    Where::Carried | Where::Delivered(_) => continue,
+                };
+                moves.push((
+                    station,
+                    with(i, Where::Carried, part.color),
+                    (|l| l.grip_settle_s) as Settle,
+                ));
+            }
+        }
+        Some(i) => {
+            let color = state.parts[i].color;
+            if color == PartColor::Blue {
+                for slot in 0..4u8 {
+                    if !state.occupied(Where::Delivered(slot)) {
+                        moves.push((
+                            Station::Outgoing(usize::from(slot)),
+                            with(i, Where::Delivered(slot), color),
+                            (|l| l.release_settle_s) as Settle,
+                        ));
+                    }
+                }
+            }
+            for (row, kind) in ROWS.iter().enumerate() {
+                let row = row as u8;
+                if let Some(turned) = rules.transform(*kind, color)
+                    && !state.occupied(Where::Output(row))
+                {
+                    moves.push((
+                        Station::MachineInput(usize::from(row)),
+                        with(i, Where::Output(row), turned),
+                        (|l| l.release_settle_s) as Settle,
+                    ));
+                }
+            }
+        }
+    }
+    moves.retain(|(station, _, _)| places.index(*station).is_some());
+    moves
+}
+
+/// A queue entry, least time first.
+struct Entry(f64, State);
+
+impl PartialEq for Entry {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.total_cmp(&other.0).is_eq()
+    }
+}
+
+impl Eq for Entry {}
+
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Entry {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.0.total_cmp(&self.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Stations on a line, one second apart per index step, no dwell: the search's answer
+    /// can be worked out by hand.
+    fn line() -> (Places, Vec<f64>) {
+        let stations = vec![
+            Station::Start,
+            Station::Incoming(0),
+            Station::Outgoing(0),
+            Station::MachineInput(2),
+            Station::MachineOutput(2),
+        ];
+        let n = stations.len();
+        let legs = (0..n * n).map(|k| (k / n).abs_diff(k % n) as f64).collect();
+        (Places::new(stations), legs)
+    }
+
+    fn no_dwell() -> MotionLimits {
+        MotionLimits {
+            max_rim_speed_m_s: 1.0,
+            yaw_arm_m: 0.0,
+            max_accel_m_s2: 1.0,
+            grip_settle_s: 0.0,
+            release_settle_s: 0.0,
+        }
+    }
+
+    #[test]
+    fn a_blue_part_goes_straight_out() {
+        let (places, legs) = line();
+        let parts = [Some(PartColor::Blue), None, None, None];
+        let t = search(&places, &legs, &no_dwell(), Rules::for_round(1), parts);
+        // Start → incoming (1 s) → outgoing (1 s).
+        assert_eq!(t, Some(2.0));
+    }
+
+    #[test]
+    fn a_green_part_visits_machine_b_first() {
+        let (places, legs) = line();
+        let parts = [Some(PartColor::Green), None, None, None];
+        let t = search(&places, &legs, &no_dwell(), Rules::for_round(3), parts);
+        // Start → incoming 1 → B input 2 → B output 1 → outgoing 2.
+        assert_eq!(t, Some(6.0));
+    }
+
+    #[test]
+    fn settles_count_at_every_pick_and_drop_but_the_last() {
+        let (places, legs) = line();
+        let limits = MotionLimits {
+            grip_settle_s: 0.25,
+            release_settle_s: 0.5,
+            ..no_dwell()
+        };
+        let parts = [Some(PartColor::Green), None, None, None];
+        let t = search(&places, &legs, &limits, Rules::for_round(3), parts);
+        // Two picks and one timed drop.
+        assert_eq!(t, Some(6.0 + 0.25 + 0.25 + 0.5));
+    }
+
+    #[test]
+    fn a_red_part_without_machine_a_has_no_order() {
+        let (places, legs) = line();
+        let parts = [Some(PartColor::Red), None, None, None];
+        let t = search(&places, &legs, &no_dwell(), Rules::for_round(3), parts);
+        assert_eq!(t, None);
+    }
+}
