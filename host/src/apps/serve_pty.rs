@@ -21,10 +21,11 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use ratf_core::config::Config;
-use ratf_core::drivers::mega_link::{MegaLink, MegaLinkConfig};
 use ratf_core::drivers::x4::{Command, CommandDecoder, Received};
 use ratf_core::field::{Field, PartColor};
 use ratf_core::planning::tasks::Rules;
+use ratf_protocol::channels::Decoder;
+use ratf_protocol::integrity::{Checksum, MCU_CHECKSUM_CHANNEL};
 use ratf_sim::parts::PartEvent;
 use ratf_sim::referee::{MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::world::{Scenario, World};
@@ -93,10 +94,10 @@ pub struct ServeReport {
     pub collisions: u32,
     /// Whether a robot ever connected.
     pub connected: bool,
-    /// Complete telemetry batches that entered the Mega's pseudo-terminal (what the robot
-    /// could read; bytes that found the terminal's buffer full are not counted): the truth
-    /// against which a robot's link counts frames lost.
-    pub mega_batches_written: u32,
+    /// The sequence number of every telemetry batch whose checksum frame entered the
+    /// Mega's pseudo-terminal, in order (bytes that found the terminal's buffer full are not
+    /// counted): the truth against which a robot's link counts frames lost.
+    pub mega_batch_sequences: Vec<u8>,
 }
 
 /// What the serve tells as it goes.
@@ -252,10 +253,10 @@ pub fn serve(
         world_s: 0.0,
         collisions: 0,
         connected: false,
-        mega_batches_written: 0,
+        mega_batch_sequences: Vec::new(),
     };
-    // Counts the complete telemetry batches that went into the Mega's terminal.
-    let mut written = MegaLink::new(MegaLinkConfig::default());
+    // Finds the checksum frames that went into the Mega's terminal.
+    let mut written = Decoder::new();
     // Wait for the robot: the world is powered up when the Mega's port is opened.
     let waiting = Instant::now();
     while !mega.connected() {
@@ -313,7 +314,12 @@ pub fn serve(
             let to_mega = world.receive_from_mega();
             if mega_up && !to_mega.is_empty() {
                 let accepted = mega.write(&to_mega);
-                written.feed(&to_mega[..accepted], world.now_us(), |_| {});
+                written.feed(&to_mega[..accepted], |frame| {
+                    if frame.channel() == MCU_CHECKSUM_CHANNEL {
+                        let seq = Checksum::from_value(frame.value()).seq;
+                        report.mega_batch_sequences.push(seq);
+                    }
+                });
             }
             let to_lidar = world.receive_from_lidar();
             if streaming && lidar_up && !to_lidar.is_empty() {
@@ -365,6 +371,5 @@ pub fn serve(
     }
     report.world_s = world.now_us() as f64 * 1e-6;
     report.collisions = world.stats().collisions;
-    report.mega_batches_written = written.stats().batches;
     Ok(report)
 }

@@ -12,8 +12,9 @@
 //! - the latency from an input's arrival to its references written (p50, p99, max);
 //! - telemetry batches: those that entered the Mega's terminal (the world counts them),
 //!   those the robot's link delivered, those it reported lost (incomplete, corrupt, out
-//!   of sequence), the one the world may write as the robot stops reading at the end
-//!   ([`END_OF_ROUND_UNREAD`]), and the rest — lost without the link saying so;
+//!   of sequence), those written after the last one the robot read (its Mega thread stops
+//!   reading when the run ends; found by the batches' sequence numbers), and the rest —
+//!   lost without the link saying so;
 //! - the recording's size; once every round is over, each recording is read back:
 //!   complete (summary and footer), and holding every input the core consumed. (Reading
 //!   them between rounds would put the reader's large buffers into the resident memory
@@ -36,11 +37,6 @@ const WAIT_FOR_ROBOT_S: f64 = 30.0;
 
 /// How long to wait for the served world's device files and server, s.
 const READY_TIMEOUT: Duration = Duration::from_secs(30);
-
-/// Telemetry batches the world may write that the robot never reads, at the end of a round:
-/// the robot's Mega thread stops reading when its run ends, and the world stops writing only
-/// when it sees that, so the batch of the last control period (20 ms) may be left unread.
-pub const END_OF_ROUND_UNREAD: u32 = 1;
 
 /// Resident memory growth after the first round a soak accepts, KiB (issue 17: ≤ 1 MiB).
 pub const RSS_GROWTH_LIMIT_KIB: u64 = 1024;
@@ -132,8 +128,8 @@ pub struct SoakRound {
     pub batches_received: u32,
     /// Batches the link reported lost (incomplete, corrupt, out of sequence, overflowed).
     pub batches_reported_lost: u32,
-    /// Written in the robot's last control period and not read before it stopped reading
-    /// (at most [`END_OF_ROUND_UNREAD`]).
+    /// Written after the last batch the robot's link delivered: left unread when the run
+    /// ended (the robot's Mega thread stops reading then, the world a little later).
     pub batches_unread_at_end: u32,
     /// Written, but neither delivered, nor reported, nor left unread at the end: lost
     /// silently.
@@ -376,10 +372,13 @@ fn one_round(
             )
         });
         let recording_bytes = std::fs::metadata(&run.recording).map_or(0, |m| m.len());
-        let unaccounted = served
-            .mega_batches_written
-            .saturating_sub(received.saturating_add(reported));
-        let unread_at_end = unaccounted.min(END_OF_ROUND_UNREAD);
+        let written = u32::try_from(served.mega_batch_sequences.len()).unwrap_or(u32::MAX);
+        let last = run
+            .mega_link
+            .and_then(|stats| stats.link.last_delivered_sequence);
+        let read_up_to = read_up_to(&served.mega_batch_sequences, last);
+        let unread_at_end = written - read_up_to;
+        let unaccounted = read_up_to.saturating_sub(received.saturating_add(reported));
         Ok(SoakRound {
             index,
             seed,
@@ -391,17 +390,28 @@ fn one_round(
             rss_kib: current_rss_kib(),
             latency: run.latency,
             inputs_dropped: run.inputs_dropped,
-            batches_written: served.mega_batches_written,
+            batches_written: written,
             batches_received: received,
             batches_reported_lost: reported,
             batches_unread_at_end: unread_at_end,
-            batches_unreported_lost: unaccounted - unread_at_end,
+            batches_unreported_lost: unaccounted,
             recording: run.recording,
             recording_bytes,
             inputs: run.inputs,
             recording_check: Err("not read back yet".to_owned()),
         })
     })
+}
+
+/// How many of the batches `written` (their sequence numbers, in order) come up to the last
+/// one the robot's link delivered, `last`: the last occurrence of that number (numbers wrap
+/// after 255 batches, 5 s; what is left unread at the end is far less).
+fn read_up_to(written: &[u8], last: Option<u8>) -> u32 {
+    let Some(last) = last else { return 0 };
+    written
+        .iter()
+        .rposition(|&seq| seq == last)
+        .map_or(0, |i| u32::try_from(i + 1).unwrap_or(u32::MAX))
 }
 
 /// `config` as `ratf run` would load it for the world served under `dev`: its Mega and
@@ -500,6 +510,17 @@ mod tests {
         assert!(failures[2].contains("ends early"));
         assert_eq!(soak.unreported_lost(), 2);
         assert!(report(Vec::new()).failures()[0].contains("no round"));
+    }
+
+    #[test]
+    fn batches_after_the_last_one_delivered_are_unread_not_lost() {
+        let written = [0, 1, 2, 3, 4, 5, 6];
+        assert_eq!(read_up_to(&written, Some(4)), 5);
+        assert_eq!(read_up_to(&written, None), 0);
+        // Numbers wrap (1..=255 after the first 0): the last occurrence counts.
+        let wrapped: Vec<u8> = (0..=255u8).chain(1..=3).collect();
+        assert_eq!(read_up_to(&wrapped, Some(2)), 258);
+        assert_eq!(read_up_to(&wrapped, Some(9)), 10);
     }
 
     #[test]
