@@ -26,6 +26,7 @@ use ratf_core::field::{Field, PartColor};
 use ratf_core::planning::tasks::Rules;
 use ratf_protocol::channels::Decoder;
 use ratf_protocol::integrity::{Checksum, MCU_CHECKSUM_CHANNEL};
+use ratf_protocol::messages::SWITCH_CHANNEL;
 use ratf_sim::parts::PartEvent;
 use ratf_sim::referee::{MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::world::{Scenario, World};
@@ -94,8 +95,8 @@ pub struct ServeReport {
     pub collisions: u32,
     /// Whether a robot ever connected.
     pub connected: bool,
-    /// The sequence number of every telemetry batch whose checksum frame entered the
-    /// Mega's pseudo-terminal, in order (bytes that found the terminal's buffer full are not
+    /// The sequence number of every telemetry batch (one with a switch frame `s`: not the
+    /// boot's `r` alone) whose checksum frame entered the Mega's pseudo-terminal, in order (bytes that found the terminal's buffer full are not
     /// counted): the truth against which a robot's link counts frames lost.
     pub mega_batch_sequences: Vec<u8>,
 }
@@ -257,6 +258,7 @@ pub fn serve(
     };
     // Finds the checksum frames that went into the Mega's terminal.
     let mut written = Decoder::new();
+    let mut batch_has_telemetry = false;
     // Wait for the robot: the world is powered up when the Mega's port is opened.
     let waiting = Instant::now();
     while !mega.connected() {
@@ -316,8 +318,13 @@ pub fn serve(
                 let accepted = mega.write(&to_mega);
                 written.feed(&to_mega[..accepted], |frame| {
                     if frame.channel() == MCU_CHECKSUM_CHANNEL {
-                        let seq = Checksum::from_value(frame.value()).seq;
-                        report.mega_batch_sequences.push(seq);
+                        if batch_has_telemetry {
+                            let seq = Checksum::from_value(frame.value()).seq;
+                            report.mega_batch_sequences.push(seq);
+                        }
+                        batch_has_telemetry = false;
+                    } else if frame.channel() == SWITCH_CHANNEL {
+                        batch_has_telemetry = true;
                     }
                 });
             }
