@@ -7,6 +7,7 @@
 pub mod apps;
 pub mod devices;
 pub mod hmi;
+pub mod mcap_read;
 pub mod plot;
 pub mod pty;
 pub mod recording;

@@ -16,7 +16,8 @@
 //! Beside them, the same run as ROS 2 messages (`ros2msg` schemas, `cdr` encoding) for
 //! Foxglove and `ros2 bag`: see [`crate::ros2::derive`] for the topics.
 //!
-//! A run killed half-way leaves a file readable up to its last complete chunk.
+//! A run killed half-way leaves a file readable up to its last complete chunk; chunks are
+//! [`CHUNK_BYTES`] of messages, a fraction of a second of a round, so little is lost.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -31,6 +32,10 @@ use ratf_core::runtime::{Input, Outputs, Stamped, StepView, Tap, Timestamp};
 
 use crate::ros2::msgs::EncodeError;
 use crate::ros2::record::Ros2Channels;
+
+/// Uncompressed bytes of messages per MCAP chunk: 64 KiB, a fraction of a second of a round
+/// (mcap's default, 1 MiB, would leave the last few seconds before a crash unreadable).
+pub const CHUNK_BYTES: u64 = 64 * 1024;
 
 /// Topic of the session record.
 pub const SESSION_TOPIC: &str = "/ratf/session";
@@ -191,6 +196,7 @@ impl Recorder {
         })?;
         let mut writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(CHUNK_BYTES))
             .profile("")
             .library(format!("ratf {}", env!("CARGO_PKG_VERSION")))
             .create(BufWriter::new(file))
@@ -363,28 +369,16 @@ impl Recording {
 
     /// Parse the bytes of a recording (`path` names it in errors).
     pub fn from_bytes(path: &Path, bytes: &[u8]) -> Result<Self, RecordingError> {
-        let stream = mcap::MessageStream::new(bytes).map_err(|source| RecordingError::Mcap {
-            path: path.to_owned(),
-            source,
-        })?;
         let mut session: Option<Session> = None;
         let mut inputs = Vec::new();
         let mut outputs = Vec::new();
         let mut poses = Vec::new();
         let mut truth = Vec::new();
-        let mut truncated = false;
-        for message in stream {
-            let Ok(message) = message else {
-                truncated = true;
-                break;
-            };
-            let topic = message.channel.topic.as_str();
-            let data = &message.data;
-            let index = u64::from(message.sequence);
+        let end = crate::mcap_read::for_each_message(bytes, |topic, sequence, data| {
             let decode_error = |source| RecordingError::Decode {
                 path: path.to_owned(),
                 topic: topic.to_owned(),
-                index,
+                index: u64::from(sequence),
                 source,
             };
             match topic {
@@ -397,7 +391,9 @@ impl Recording {
                 TRUTH_TOPIC => truth.push(serde_json::from_slice(data).map_err(decode_error)?),
                 _ => {}
             }
-        }
+            Ok(())
+        })?;
+        let truncated = end == crate::mcap_read::End::Truncated;
         if truncated {
             // Its outputs may have been in the chunk that was lost.
             inputs.pop();

@@ -234,6 +234,9 @@ pub struct LinkStats {
     pub batches_overflowed: u32,
     /// Frames abandoned by the decoder (a non-hex byte inside a frame).
     pub frames_aborted: u32,
+    /// Sequence number of the last batch whose frames were delivered (`None` before the
+    /// first checksum frame): where in the sender's numbering the receiver has got to.
+    pub last_delivered_sequence: Option<u8>,
 }
 
 impl LinkStats {
@@ -293,6 +296,7 @@ impl<const N: usize> BatchReceiver<N> {
                 batches_out_of_sequence: 0,
                 batches_overflowed: 0,
                 frames_aborted: 0,
+                last_delivered_sequence: None,
             },
         }
     }
@@ -368,6 +372,7 @@ impl<const N: usize> BatchReceiver<N> {
                 if intact {
                     self.mode = Mode::Strict;
                     self.last_seq = Some(checksum.seq);
+                    self.stats.last_delivered_sequence = Some(checksum.seq);
                 }
             }
             Mode::Strict => {
@@ -384,6 +389,7 @@ impl<const N: usize> BatchReceiver<N> {
                         self.stats.batches_out_of_sequence += 1;
                     } else {
                         self.stats.batches_ok += 1;
+                        self.stats.last_delivered_sequence = Some(checksum.seq);
                         for frame in self.pending[..self.pending_len].iter().flatten() {
                             self.stats.frames_delivered += 1;
                             deliver(*frame);

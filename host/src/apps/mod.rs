@@ -15,5 +15,6 @@ pub mod round;
 pub mod run;
 pub mod scripts;
 pub mod serve_pty;
+pub mod soak;
 pub mod time_split;
 pub mod tune;

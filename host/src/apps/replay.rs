@@ -293,4 +293,42 @@ mod tests {
         let replayed = replay(&recording, None, |_, _| {}).unwrap();
         assert_eq!(replayed.divergences, 0, "{:?}", replayed.first_divergence);
     }
+
+    #[test]
+    fn a_recording_cut_anywhere_reads_as_a_prefix_or_an_error_never_a_panic() {
+        let (path, report) = recorded_round("cut-anywhere");
+        let bytes = std::fs::read(&path).unwrap();
+        let whole = Recording::read(&path).unwrap();
+        assert_eq!(whole.inputs.len() as u64, report.inputs);
+        // 200 cuts spread over the file, plus the first and last few bytes.
+        let step = (bytes.len() / 200).max(1);
+        let cuts = (0..bytes.len())
+            .step_by(step)
+            .chain(1..64)
+            .chain(bytes.len() - 64..bytes.len());
+        let mut read_some = 0;
+        let mut previous = (0, 0);
+        for cut in cuts {
+            match Recording::from_bytes(&path, &bytes[..cut]) {
+                Ok(recording) => {
+                    let n = recording.inputs.len();
+                    // Cut in the summary after the data: everything is there.
+                    assert!(
+                        recording.truncated || n == whole.inputs.len(),
+                        "cut at {cut}"
+                    );
+                    assert_eq!(recording.inputs[..], whole.inputs[..n], "cut at {cut}");
+                    assert_eq!(recording.session, whole.session);
+                    if cut > previous.0 {
+                        assert!(n >= previous.1, "cut at {cut}: {n} < {} inputs", previous.1);
+                        previous = (cut, n);
+                    }
+                    read_some += 1;
+                }
+                // Before the session's chunk is complete there is nothing to read.
+                Err(e) => assert!(e.to_string().contains(&path.display().to_string()), "{e}"),
+            }
+        }
+        assert!(read_some > 150, "only {read_some} cuts were readable");
+    }
 }

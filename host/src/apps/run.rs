@@ -14,6 +14,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use ratf_core::config::{Config, ImuDevice};
+use ratf_core::drivers::mega_link::MegaLinkStats;
 use ratf_core::field::Field;
 use ratf_core::referee::protocol::SlotLetters;
 use ratf_core::runtime::{
@@ -76,6 +77,8 @@ pub struct RunOptions {
     pub status_hz: f64,
     /// The live ROS 2 bridge (`--ros2`), if asked for.
     pub ros2: Option<crate::ros2::live::BridgeOptions>,
+    /// Print the core's events (picked, placed, …) on stdout as they happen.
+    pub print_events: bool,
 }
 
 /// How a run ended.
@@ -162,6 +165,9 @@ pub struct RunReport {
     pub cpu_per_s: f64,
     /// Peak resident memory, KiB.
     pub max_rss_kib: u64,
+    /// The Mega link's counters at the end (batches received, and those it reported lost:
+    /// incomplete, corrupt, out of sequence); `None` if the port was never read.
+    pub mega_link: Option<MegaLinkStats>,
     /// The recording.
     pub recording: PathBuf,
 }
@@ -203,6 +209,7 @@ struct StatusTap {
     last: Instant,
     terminal: bool,
     last_placed: Option<Timestamp>,
+    print_events: bool,
 }
 
 impl StatusTap {
@@ -238,6 +245,9 @@ impl Tap for StatusTap {
         for event in &view.outputs.events {
             if matches!(event, Event::Placed { .. }) {
                 self.last_placed = Some(view.input.time);
+            }
+            if !self.print_events {
+                continue;
             }
             let text = event.describe(&self.field);
             if self.terminal {
@@ -486,6 +496,7 @@ pub fn run_robot_with(
         last: Instant::now(),
         terminal: std::io::stderr().is_terminal(),
         last_placed: None,
+        print_events: options.print_events,
     };
     // The live ROS 2 bridge's commands come on a channel of their own.
     let (ros2_operator, ros2_commands) = operator_channel();
@@ -550,6 +561,7 @@ pub fn run_robot_with(
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),
+        mega_link: mega.link_stats(),
         recording,
     })
 }

@@ -24,6 +24,9 @@ use ratf_core::config::Config;
 use ratf_core::drivers::x4::{Command, CommandDecoder, Received};
 use ratf_core::field::{Field, PartColor};
 use ratf_core::planning::tasks::Rules;
+use ratf_protocol::channels::Decoder;
+use ratf_protocol::integrity::{Checksum, MCU_CHECKSUM_CHANNEL};
+use ratf_protocol::messages::SWITCH_CHANNEL;
 use ratf_sim::parts::PartEvent;
 use ratf_sim::referee::{MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::world::{Scenario, World};
@@ -92,6 +95,10 @@ pub struct ServeReport {
     pub collisions: u32,
     /// Whether a robot ever connected.
     pub connected: bool,
+    /// The sequence number of every telemetry batch (one with a switch frame `s`: not the
+    /// boot's `r` alone) whose checksum frame entered the Mega's pseudo-terminal, in order (bytes that found the terminal's buffer full are not
+    /// counted): the truth against which a robot's link counts frames lost.
+    pub mega_batch_sequences: Vec<u8>,
 }
 
 /// What the serve tells as it goes.
@@ -169,8 +176,8 @@ impl Pty {
     }
 
     /// Send `bytes` to the robot; what does not fit in the terminal's buffer is lost, as
-    /// on a serial line nobody reads.
-    fn write(&mut self, bytes: &[u8]) {
+    /// on a serial line nobody reads. Returns how many bytes (from the start) went in.
+    fn write(&mut self, bytes: &[u8]) -> usize {
         let mut rest = bytes;
         while !rest.is_empty() {
             match self.master.write(rest) {
@@ -180,6 +187,7 @@ impl Pty {
                 Err(_) => break,
             }
         }
+        bytes.len() - rest.len()
     }
 }
 
@@ -246,7 +254,11 @@ pub fn serve(
         world_s: 0.0,
         collisions: 0,
         connected: false,
+        mega_batch_sequences: Vec::new(),
     };
+    // Finds the checksum frames that went into the Mega's terminal.
+    let mut written = Decoder::new();
+    let mut batch_has_telemetry = false;
     // Wait for the robot: the world is powered up when the Mega's port is opened.
     let waiting = Instant::now();
     while !mega.connected() {
@@ -303,7 +315,18 @@ pub fn serve(
             world.step();
             let to_mega = world.receive_from_mega();
             if mega_up && !to_mega.is_empty() {
-                mega.write(&to_mega);
+                let accepted = mega.write(&to_mega);
+                written.feed(&to_mega[..accepted], |frame| {
+                    if frame.channel() == MCU_CHECKSUM_CHANNEL {
+                        if batch_has_telemetry {
+                            let seq = Checksum::from_value(frame.value()).seq;
+                            report.mega_batch_sequences.push(seq);
+                        }
+                        batch_has_telemetry = false;
+                    } else if frame.channel() == SWITCH_CHANNEL {
+                        batch_has_telemetry = true;
+                    }
+                });
             }
             let to_lidar = world.receive_from_lidar();
             if streaming && lidar_up && !to_lidar.is_empty() {

@@ -95,6 +95,17 @@ enum Command {
     /// Fit the robot's wheel motors and tune the Mega's wheel PI (README, "Fit your robot").
     #[command(subcommand)]
     Tune(TuneCommand),
+    /// `ratf run` against `ratf sim --serve-pty`, round after round in one process for a
+    /// given time: resident memory, core latency, telemetry frames lost and recordings,
+    /// per round and summed up.
+    #[command(after_help = "Exit codes:\n  \
+        0    every round finished with its recording complete, no telemetry frame lost \
+             that the link did not report, resident memory grew by at most 1 MiB after the \
+             first round\n  \
+        1    a criterion failed (each failure is printed), or the soak could not go on\n  \
+        2    bad command line\n  \
+        130  stopped by Ctrl-C or SIGTERM")]
+    Soak(SoakArgs),
 }
 
 #[derive(Debug, Subcommand)]
@@ -106,6 +117,29 @@ enum TuneCommand {
     /// PI gains by IMC tuning from the identified model (`[motor]`), with the predicted
     /// 10 rad/s step; `--write FILE` sets the `[mega]` keys.
     Gains(ratf_host::apps::tune::cli::GainsArgs),
+}
+
+#[derive(Debug, Args)]
+struct SoakArgs {
+    /// Start no new round after this many seconds (the round under way finishes; a round 1
+    /// takes about 45 s).
+    #[arg(long, value_name = "S", default_value_t = 3600.0)]
+    duration_s: f64,
+    /// The first round's seed; each next round takes the next.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Configuration file (defaults: the competition robot), for the world and the robot.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Folder for the device links and the recordings.
+    #[arg(long, value_name = "DIR", default_value = "out/soak")]
+    out: PathBuf,
+    /// Keep every round's recording (otherwise each is deleted once read back).
+    #[arg(long)]
+    keep_recordings: bool,
+    /// Print one JSON object with the figures as the last line of stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -507,6 +541,7 @@ fn main() -> anyhow::Result<()> {
             ratf_host::apps::tune::cli::gains_command(&args)?
         }
         Command::Replay(args) => replay_command(&args)?,
+        Command::Soak(args) => soak_command(&args),
         Command::Config(args) => {
             if let Some(path) = args.check {
                 let loaded = if args.robot {
@@ -1991,6 +2026,7 @@ fn run_command(args: &RunArgs) -> ! {
             loopback_only: args.ros2_loopback,
             cmd_vel: args.ros2_cmd_vel,
         }),
+        print_events: true,
     };
     let hmi = args.hmi.as_ref().map(|address| {
         use ratf_host::hmi::{commands::CONTROL_NAMES, server};
@@ -2070,6 +2106,133 @@ fn run_command(args: &RunArgs) -> ! {
         );
     }
     std::process::exit(report.outcome.exit_code());
+}
+
+/// `ratf soak`: exits with the codes its help lists.
+fn soak_command(args: &SoakArgs) -> ! {
+    use ratf_host::apps::soak::{self, SoakOptions};
+    let config = load_config(args.config.as_deref()).unwrap_or_else(|e| {
+        eprintln!("ratf soak: {e:#}");
+        std::process::exit(1);
+    });
+    let shared = quit_on_signals_and_panics("ratf soak", 1);
+    let options = SoakOptions {
+        duration_s: args.duration_s,
+        first_seed: args.seed,
+        out: args.out.clone(),
+        keep_recordings: args.keep_recordings,
+    };
+    println!(
+        "ratf soak: round 1 after round 1 for {:.0} s (seeds from {}), recordings in {}",
+        args.duration_s,
+        args.seed,
+        args.out.display()
+    );
+    println!(
+        "round  seed  wall s  outcome   placed points  RSS KiB  p50 µs  p99 µs  max µs  \
+         batches written/received/reported/unread at end/silent  recording"
+    );
+    let report = soak::soak(&config, &options, &shared, |round| {
+        println!(
+            "{:5} {:5} {:7.0}  {:8} {:6} {:6} {:8} {:7} {:7} {:7}  {}/{}/{}/{}/{}  {} KiB",
+            round.index,
+            round.seed,
+            round.at_s,
+            format!("{:?}", round.outcome).to_lowercase(),
+            round.placed,
+            round.points,
+            round.rss_kib,
+            round.latency.p50_us,
+            round.latency.p99_us,
+            round.latency.max_us,
+            round.batches_written,
+            round.batches_received,
+            round.batches_reported_lost,
+            round.batches_unread_at_end,
+            round.batches_unreported_lost,
+            round.recording_bytes / 1024,
+        );
+    })
+    .unwrap_or_else(|e| {
+        eprintln!("ratf soak: {e}");
+        std::process::exit(1);
+    });
+    let (p99_min, p99_max) = report.p99_range_us();
+    let failures = report.failures();
+    println!(
+        "ratf soak: {} round(s) in {:.0} s{}; resident memory {} KiB after the first round, \
+         growth after it {} KiB (limit {} KiB); p99 latency {}–{} µs per round; telemetry \
+         batches lost without the link reporting them: {}; {} recording(s) written, {} \
+         complete",
+        report.rounds.len(),
+        report.wall_s,
+        if report.interrupted {
+            " (interrupted)"
+        } else {
+            ""
+        },
+        report.rounds.first().map_or(0, |r| r.rss_kib),
+        report.rss_growth_kib(),
+        soak::RSS_GROWTH_LIMIT_KIB,
+        p99_min,
+        p99_max,
+        report.unreported_lost(),
+        report.rounds.len(),
+        report
+            .rounds
+            .iter()
+            .filter(|r| r.recording_check.is_ok())
+            .count()
+    );
+    for failure in &failures {
+        println!("FAILED: {failure}");
+    }
+    if args.json {
+        let rounds: Vec<_> = report
+            .rounds
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "round": r.index,
+                    "seed": r.seed,
+                    "at_s": r.at_s,
+                    "finished": r.outcome == ratf_host::apps::run::Outcome::Finished,
+                    "placed": r.placed,
+                    "points": r.points,
+                    "collisions": r.collisions,
+                    "rss_kib": r.rss_kib,
+                    "p50_us": r.latency.p50_us,
+                    "p99_us": r.latency.p99_us,
+                    "max_us": r.latency.max_us,
+                    "inputs_dropped": r.inputs_dropped,
+                    "batches_written": r.batches_written,
+                    "batches_received": r.batches_received,
+                    "batches_reported_lost": r.batches_reported_lost,
+                    "batches_unread_at_end": r.batches_unread_at_end,
+                    "batches_unreported_lost": r.batches_unreported_lost,
+                    "recording_bytes": r.recording_bytes,
+                    "recording_complete": r.recording_check.is_ok(),
+                })
+            })
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({
+                "rounds": rounds,
+                "wall_s": report.wall_s,
+                "interrupted": report.interrupted,
+                "rss_growth_kib": report.rss_growth_kib(),
+                "p99_min_us": p99_min,
+                "p99_max_us": p99_max,
+                "unreported_lost": report.unreported_lost(),
+                "passed": failures.is_empty(),
+            })
+        );
+    }
+    if report.interrupted {
+        std::process::exit(ratf_host::apps::run::EXIT_INTERRUPTED);
+    }
+    std::process::exit(if failures.is_empty() { 0 } else { 1 });
 }
 
 /// `ratf check`: exits with the codes its help lists.

@@ -269,6 +269,35 @@ mod tests {
     }
 
     #[test]
+    fn replies_from_anyone_but_the_configured_server_are_never_read() {
+        let server = silent_server();
+        let stranger = silent_server();
+        let link = RefereeLink::connect(server.local_addr().unwrap(), 0).unwrap();
+        let to = link.socket.local_addr().unwrap();
+        let to = SocketAddr::from(([127, 0, 0, 1], to.port()));
+        // A stranger on the same host answers first, then the server.
+        stranger.send_to(b"BGRX", to).unwrap();
+        stranger.send_to(b"STOP", to).unwrap();
+        server.send_to(b"RRRR", to).unwrap();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let mut received = Vec::new();
+        while received.is_empty() && Instant::now() < deadline {
+            link.wait_readable(Duration::from_millis(10));
+            received.extend(link.receive());
+        }
+        assert_eq!(received, vec![b"RRRR".to_vec()]);
+        // The stranger's datagrams never show up later either: the socket is connected.
+        stranger.send_to(b"GGGG", to).unwrap();
+        server.send_to(b"PONG", to).unwrap();
+        let mut later = Vec::new();
+        while later.is_empty() && Instant::now() < deadline {
+            link.wait_readable(Duration::from_millis(10));
+            later.extend(link.receive());
+        }
+        assert_eq!(later, vec![b"PONG".to_vec()]);
+    }
+
+    #[test]
     fn a_flooding_server_is_read_at_most_64_datagrams_a_call_and_nothing_is_lost() {
         let server = silent_server();
         let link = RefereeLink::connect(server.local_addr().unwrap(), 0).unwrap();
