@@ -11,7 +11,7 @@
 use crate::config::{Config, Policy as Driving};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{ORIGINAL_APPROACH_M, plan_original_route, plan_route};
+use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
 use crate::field::Field;
 use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Vec2};
@@ -258,6 +258,7 @@ pub struct RouteNavigator {
     failed: bool,
     last_goal: Option<Vec2>,
     creep_from: Option<Pose2>,
+    route: Option<Route>,
 }
 
 impl std::fmt::Debug for RouteNavigator {
@@ -285,11 +286,18 @@ impl RouteNavigator {
             failed: false,
             last_goal: None,
             creep_from: None,
+            route: None,
         }
     }
 }
 
 impl RouteNavigator {
+    /// The route of the current leg as planned when it began (`None` before the first leg,
+    /// or when the last one could not be planned).
+    pub fn route(&self) -> Option<&Route> {
+        self.route.as_ref()
+    }
+
     /// The creep to contact after the docking approach: speed, m/s, and how far, m.
     fn creep(&self) -> (f64, f64) {
         match self.preset {
@@ -344,9 +352,13 @@ impl Navigator for RouteNavigator {
         match route {
             Ok(route) => {
                 self.failed = false;
+                self.route = Some(route.clone());
                 self.follower.start(route);
             }
-            Err(_) => self.failed = true,
+            Err(_) => {
+                self.failed = true;
+                self.route = None;
+            }
         }
     }
 

@@ -328,6 +328,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         }
     }
 
+    /// The navigator, e.g. to show the route it follows.
+    pub fn navigator(&self) -> &N {
+        &self.navigator
+    }
+
     /// The action source, e.g. to inspect the planner's state.
     pub fn actions(&self) -> &A {
         &self.actions

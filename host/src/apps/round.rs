@@ -894,6 +894,46 @@ mod tests {
         );
     }
 
+    /// The route displays show (HMI, ROS 2) is the navigator's own: on the way to a slot
+    /// it exists and ends at that slot's pick pose; otherwise there is none.
+    #[test]
+    fn the_planned_route_is_the_navigators_and_ends_at_the_slot_it_goes_to() {
+        use ratf_core::mission::Activity;
+        struct Routes {
+            field: Field,
+            legs: u32,
+            last: Option<Activity>,
+        }
+        impl Tap for Routes {
+            fn on_step(&mut self, step: &ratf_core::runtime::StepView<'_>) {
+                let brain = step.core.brain();
+                let activity = brain.activity();
+                match activity {
+                    Some(Activity::ToPick { slot } | Activity::ToDrop { slot }) => {
+                        let route = brain.planned_route().expect("a route on the way");
+                        let goal = self.field.slot_for_waypoint(slot).unwrap().pick_pose;
+                        assert_eq!(route.goal(), goal);
+                        if activity != self.last {
+                            self.legs += 1;
+                        }
+                    }
+                    _ => assert!(brain.planned_route().is_none(), "{activity:?}"),
+                }
+                self.last = activity;
+            }
+        }
+        let mut routes = Routes {
+            field: Field::competition(),
+            legs: 0,
+            last: None,
+        };
+        let config = Config::default();
+        let options = RoundOptions::new(1, 1, Policy::Ours);
+        let report = run_in_world(&config, &config, &options, &mut [&mut routes], |_| {}).unwrap();
+        assert_eq!(report.points, 4);
+        assert_eq!(routes.legs, 8, "one leg to each pick and each drop");
+    }
+
     #[test]
     fn the_realistic_world_is_not_the_robots_belief() {
         let ideal = round(1, Policy::Ours);

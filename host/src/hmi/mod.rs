@@ -12,7 +12,6 @@
 //!   [`OperatorCommand`](ratf_core::runtime::OperatorCommand) sent through
 //!   [`crate::devices::operator`] (so the core consumes it as an input and the recording
 //!   keeps it), a round choice for the simulator, or a request to the replay player.
-//! - [`path`]: the planned path, from the robot's own route planner.
 //! - [`auth`]: the token printed at start-up, compared in constant time.
 //! - [`replay`]: the player behind `ratf replay FILE --hmi ADDR` (time slider, play/pause,
 //!   speed, jump to an event): the recording's inputs folded through a core up to the chosen
@@ -24,7 +23,6 @@ pub mod auth;
 pub mod commands;
 pub mod floor;
 pub mod hub;
-pub mod path;
 pub mod replay;
 pub mod server;
 pub mod snapshot;

@@ -13,7 +13,6 @@ use ratf_core::robot::InputCounts;
 use ratf_core::runtime::{Core, Event, Input, StepView, Tap, slot_name};
 
 use super::hub::Hub;
-use super::path::PathPlanner;
 use super::snapshot::{
     BeaconsView, EventLine, HealthView, PartView, PoseView, ReplayView, Snapshot, Target,
     WheelsView, color_letter, event_kind,
@@ -69,8 +68,6 @@ pub struct HmiTap {
     rate_base: Option<(u64, InputCounts)>,
     rates: (f64, f64, f64),
     truth: Option<Pose2>,
-    planner: PathPlanner,
-    path: Vec<[f64; 2]>,
     /// The replay player's state, shown with the snapshot.
     pub replay: Option<ReplayView>,
     /// The simulated round and seed, shown with the snapshot.
@@ -101,8 +98,6 @@ impl HmiTap {
             rate_base: None,
             rates: (0.0, 0.0, 0.0),
             truth: None,
-            planner: PathPlanner::new(config),
-            path: Vec::new(),
             replay: None,
             round: None,
         }
@@ -113,7 +108,7 @@ impl HmiTap {
         self.notes.clone()
     }
 
-    fn on_event(&mut self, t_s: f64, event: &Event, pose: Pose2) {
+    fn on_event(&mut self, t_s: f64, event: &Event) {
         match event {
             Event::PartList { parts, .. } => {
                 self.parts.clear();
@@ -125,24 +120,18 @@ impl HmiTap {
             }
             Event::ActionStarted { pick, drop, .. } => {
                 self.action = Some((*pick, *drop));
-                self.path = self.planner.route(pose, *pick, true);
             }
             Event::Picked { slot, color } => {
                 self.parts.remove(&slot.0);
                 self.carrying = Some(*color);
-                if let Some((_, drop)) = self.action {
-                    self.path = self.planner.route(pose, drop, false);
-                }
             }
             Event::Placed { slot, color } => {
                 self.parts.insert(slot.0, *color);
                 self.carrying = None;
                 self.action = None;
-                self.path.clear();
             }
             Event::Skipped { .. } | Event::Finished => {
                 self.action = None;
-                self.path.clear();
             }
             Event::DeviceFault { .. } => self.faults.push(event.describe(&self.field)),
             _ => {}
@@ -241,7 +230,11 @@ impl HmiTap {
                 seen: last.nis.map(|n| n.is_some()),
             },
             target: self.target(),
-            path: self.path.clone(),
+            path: core
+                .brain()
+                .planned_route()
+                .map(|route| route.points().iter().map(|p| [p.x, p.y]).collect())
+                .unwrap_or_default(),
             parts: self
                 .parts
                 .iter()
@@ -293,7 +286,7 @@ impl Tap for HmiTap {
             self.events.push(line);
         }
         for event in &step.outputs.events {
-            self.on_event(t_s, event, step.core.pose());
+            self.on_event(t_s, event);
         }
         if let Input::Scan(scan) = &step.input.input {
             if scan.packets_dropped > 0 {

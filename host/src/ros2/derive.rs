@@ -18,7 +18,6 @@
 
 use std::f64::consts::TAU;
 
-use crate::hmi::path::PathPlanner;
 use ratf_core::config::Config;
 use ratf_core::drivers::imu::ImuSample;
 use ratf_core::drivers::x4::scan::Scan;
@@ -183,7 +182,6 @@ pub struct Deriver {
     next_slow_us: u64,
     odometry_variance: [f64; 3],
     faults: Vec<(DeviceKind, String)>,
-    planner: PathPlanner,
     leg: Option<Activity>,
 }
 
@@ -197,7 +195,6 @@ impl Deriver {
             next_slow_us: 0,
             odometry_variance: [0.0; 3],
             faults: Vec::new(),
-            planner: PathPlanner::new(config),
             leg: None,
         }
     }
@@ -253,7 +250,7 @@ impl Deriver {
                     self.leg = activity;
                     out.push(Message::Markers(
                         Topic::PathMarkers,
-                        self.path_markers(activity, core.pose(), stamp),
+                        self.path_markers(core, stamp),
                     ));
                 }
                 if let Some(truth) = step.ground_truth {
@@ -464,22 +461,20 @@ impl Deriver {
         MarkerArray { markers }
     }
 
-    /// The route the robot set off on (the navigator's own planner, run from where the
-    /// robot stood when its leg began) and the slot it goes to; a `DELETEALL` first, so
-    /// only the current leg shows.
-    fn path_markers(&self, activity: Option<Activity>, pose: Pose2, stamp: Time) -> MarkerArray {
+    /// The route the robot set off on (the navigator's own, as planned when the leg began)
+    /// and the slot it goes to; a `DELETEALL` first, so only the current leg shows.
+    fn path_markers(&self, core: &Core, stamp: Time) -> MarkerArray {
         let mut markers = vec![Marker {
             header: Header::new(stamp, frames::MAP),
             ns: "path".into(),
             action: Marker::DELETEALL,
             ..Marker::default()
         }];
-        let (slot, dock) = match activity {
-            Some(Activity::ToPick { slot }) => (slot, true),
-            Some(Activity::ToDrop { slot }) => (slot, false),
-            _ => return MarkerArray { markers },
+        let (Some(Activity::ToPick { slot } | Activity::ToDrop { slot }), Some(route)) =
+            (core.brain().activity(), core.brain().planned_route())
+        else {
+            return MarkerArray { markers };
         };
-        let route = self.planner.route(pose, slot, dock);
         let color = ColorRgba::rgb(0.55, 0.2, 0.85);
         markers.push(Marker {
             header: Header::new(stamp, frames::MAP),
@@ -494,8 +489,13 @@ impl Deriver {
             },
             color,
             points: route
+                .points()
                 .iter()
-                .map(|&[x, y]| Point { x, y, z: 0.01 })
+                .map(|p| Point {
+                    x: p.x,
+                    y: p.y,
+                    z: 0.01,
+                })
                 .collect(),
             ..Marker::default()
         });

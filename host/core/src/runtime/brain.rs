@@ -7,6 +7,7 @@
 
 use crate::competition::{RouteNavigator, SnapshotUse, TaskActions};
 use crate::config::{Config, Policy};
+use crate::control::route::Route;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
@@ -124,6 +125,20 @@ impl Brain {
     /// What the mission is doing, once running.
     pub fn activity(&self) -> Option<Activity> {
         self.mission.as_ref().map(|m| m.activity())
+    }
+
+    /// The route the robot follows on its way to a slot, as planned when the leg began
+    /// (`None` while it handles a part, plans or stands still).
+    pub fn planned_route(&self) -> Option<&Route> {
+        self.mission
+            .as_ref()
+            .filter(|m| {
+                matches!(
+                    m.activity(),
+                    Activity::ToPick { .. } | Activity::ToDrop { .. }
+                )
+            })
+            .and_then(|m| m.navigator().route())
     }
 
     /// The task planner behind the mission, once running.
