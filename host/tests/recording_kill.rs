@@ -69,7 +69,8 @@ fn a_recording_cut_by_sigkill_mid_round_reads_and_replays_up_to_its_last_chunk()
     let json = replay.json();
     assert_eq!(json["divergences"], 0, "{json}");
     let inputs = json["inputs"].as_u64().expect("inputs");
-    // 200 KiB of compressed recording hold several seconds of a round.
+    // 200 KiB of compressed recording, its ROS 2 topics included, hold a few seconds of a
+    // round (about 320 inputs a second).
     let robot_s = json["robot_time_s"].as_f64().expect("robot_time_s");
-    assert!(inputs > 1000 && robot_s > 2.0, "{json}");
+    assert!(inputs > 500 && robot_s > 2.0, "{json}");
 }
