@@ -6,7 +6,9 @@
 //! `LinearReader` with [`MAX_RECORD_BYTES`] instead, so such a file ends the reading where
 //! the damage starts, like a file cut short. It also stops before an uncompressed chunk
 //! whose records overrun the chunk, on which mcap's reader overflows a subtraction (a panic
-//! where overflow checks are on; also found by the fuzz target).
+//! where overflow checks are on; also found by the fuzz target). It parses only the channel
+//! and message records it needs: mcap's parser of a damaged attachment record slices past
+//! the record's end and panics (found by the fuzz target in CI).
 
 use std::collections::HashMap;
 
@@ -47,6 +49,9 @@ pub fn for_each_message<E>(
                 rest = &rest[n..];
             }
             Ok(LinearReadEvent::Record { data, opcode }) => {
+                if opcode != CHANNEL_OPCODE && opcode != MESSAGE_OPCODE {
+                    continue;
+                }
                 match mcap::parse_record(opcode, data) {
                     Ok(Record::Channel(channel)) => {
                         topics.insert(channel.id, channel.topic);
@@ -71,6 +76,12 @@ pub fn for_each_message<E>(
         End::Complete
     })
 }
+
+/// The MCAP channel record's opcode.
+const CHANNEL_OPCODE: u8 = 0x04;
+
+/// The MCAP message record's opcode.
+const MESSAGE_OPCODE: u8 = 0x05;
 
 /// The MCAP chunk record's opcode.
 const CHUNK_OPCODE: u8 = 0x06;
@@ -174,6 +185,26 @@ mod tests {
 
     /// The fuzzer's second find: an uncompressed chunk whose record claims more bytes than
     /// the chunk holds; mcap's reader subtracted past zero there.
+    /// Found by `fuzz/fuzz_targets/recording.rs` in CI: an attachment record whose inner
+    /// lengths overrun it made mcap's `parse_record` panic.
+    #[test]
+    fn a_damaged_attachment_is_skipped_not_parsed() {
+        let bytes: &[u8] = &[
+            137, 77, 67, 65, 80, 48, 13, 10, 9, 37, 0, 0, 0, 0, 0, 0, 0, 0, 137, 77, 67, 65, 80,
+            239, 116, 172, 0, 0, 0, 42, 1, 0, 0, 0, 0, 0, 0, 4, 0, 0, 0, 0, 0, 114, 97, 116, 38,
+            32, 48, 0, 0, 0, 0, 62, 202, 204, 64, 46, 49, 46, 48, 6, 143, 59, 0, 0, 0, 0, 0, 0, 0,
+            1, 0, 0, 0, 0, 0, 0, 0, 1, 115, 116, 116, 98, 33, 0, 0, 0, 0, 0, 0, 0, 1, 150, 0, 1, 0,
+            13, 188, 80, 0, 0, 237, 44, 173,
+        ];
+        let mut messages = 0;
+        let end = for_each_message(bytes, |_, _, _| {
+            messages += 1;
+            Ok::<(), ()>(())
+        })
+        .unwrap();
+        assert_eq!((end, messages), (End::Truncated, 0));
+    }
+
     #[test]
     fn an_uncompressed_chunk_overrun_by_its_records_ends_the_reading() {
         let bytes = include_bytes!("../../fuzz/corpus/recording/chunk-overrun");
