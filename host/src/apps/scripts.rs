@@ -184,20 +184,7 @@ pub const CALIBRATION_STOP_S: f64 = 2.0;
 pub fn calibration_drive() -> (Script, Vec<StopWindow>) {
     let (speed, ramp) = (0.2, 0.3);
     let (height, width) = (0.71, 0.66);
-    let start = Field::competition().start_pose();
-    let corner = Pose2::new(-0.64, -0.42, FRAC_PI_2);
-    let to_corner = start.inverse_transform_point(corner.position());
-    let mut windows = Vec::new();
-    let mut b = Builder::new();
-    b.pause(0.5)
-        .straight(
-            to_corner.x / to_corner.norm(),
-            to_corner.y / to_corner.norm(),
-            to_corner.norm(),
-            0.1,
-            ramp,
-        )
-        .stop(CALIBRATION_STOP_S, &mut windows);
+    let (start, mut b, mut windows) = to_loop_corner(ramp);
     for (dir_x, dir_y, length) in [
         (1.0, 0.0, height),
         (0.0, -1.0, width),
@@ -212,17 +199,10 @@ pub fn calibration_drive() -> (Script, Vec<StopWindow>) {
     (b.build(start), windows)
 }
 
-/// The odometry calibration drive (`ratf calibrate odometry`): the calibration drive's loop
-/// around machine A (straight legs forward, back and sideways, 2.7 m in all, nine stops);
-/// at the stop halfway down its right side, between machines A and B, four quarter turns in
-/// place at 1 rad/s (left, left, right, right) with a stop after each: 2π rad turned, back
-/// to the loop's heading (the turning body sweeps a 0.21 m radius; the stop lies 0.25 m
-/// from machine B's dividers and 0.29 m from machine A's); then up and down the loop's left
-/// side twice more with a stop every 0.355 m: 4.3 m driven forward and back in all, 21
-/// stops, about 100 s.
-pub fn odometry_drive() -> (Script, Vec<StopWindow>) {
-    let (speed, ramp) = (0.2, 0.3);
-    let (height, width) = (0.71, 0.66);
+/// The start of both calibration drives: from the field's start pose, a short slow leg to
+/// the loop's corner and a stop there. Returns the start pose, the script so far and its
+/// stop windows.
+fn to_loop_corner(ramp: f64) -> (Pose2, Builder, Vec<StopWindow>) {
     let start = Field::competition().start_pose();
     let corner = Pose2::new(-0.64, -0.42, FRAC_PI_2);
     let to_corner = start.inverse_transform_point(corner.position());
@@ -237,6 +217,21 @@ pub fn odometry_drive() -> (Script, Vec<StopWindow>) {
             ramp,
         )
         .stop(CALIBRATION_STOP_S, &mut windows);
+    (start, b, windows)
+}
+
+/// The odometry calibration drive (`ratf calibrate odometry`): the calibration drive's loop
+/// around machine A (straight legs forward, back and sideways, 2.7 m in all, nine stops);
+/// at the stop halfway down its right side, between machines A and B, four quarter turns in
+/// place at 1 rad/s (left, left, right, right) with a stop after each: 2π rad turned, back
+/// to the loop's heading (the turning body sweeps a 0.21 m radius; the stop lies 0.25 m
+/// from machine B's dividers and 0.29 m from machine A's); then up and down the loop's left
+/// side twice more with a stop every 0.355 m: 4.3 m driven forward and back in all, 21
+/// stops, about 100 s.
+pub fn odometry_drive() -> (Script, Vec<StopWindow>) {
+    let (speed, ramp) = (0.2, 0.3);
+    let (height, width) = (0.71, 0.66);
+    let (start, mut b, mut windows) = to_loop_corner(ramp);
     for (side, (dir_x, dir_y, length)) in [
         (1.0, 0.0, height),
         (0.0, -1.0, width),
