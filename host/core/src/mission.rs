@@ -15,6 +15,8 @@
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
+//! | to drop, the switch open for `lost_part_debounce_s` | the part fell off the magnet | stop and look for it (regripping) |
+//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | crept `regrip_reach_m` without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
@@ -87,6 +89,19 @@ pub struct MissionConfig {
     pub back_out_accel_m_s2: f64,
     /// Approaches per action before it is skipped.
     pub max_attempts: u32,
+    /// How long the switch must stay open while carrying before the part counts as fallen
+    /// off the magnet, s. 0.1: five of the Mega's telemetry batches (20 ms each), so one
+    /// bounce of the switch on a bump is not a loss; at the cruise speed the robot covers
+    /// 7 cm in that time.
+    pub lost_part_debounce_s: f64,
+    /// How far the robot creeps straight on, magnet on, looking for a part that fell off the
+    /// magnet, m. 0.06: a part that slips off lands against or just ahead of the front
+    /// face, which pushes it while the robot brakes (assumption); further on it is off to a
+    /// side, where a straight creep cannot find it.
+    pub regrip_reach_m: f64,
+    /// Speed of that creep, m/s. 0.08: slow enough that the switch (20 mm of travel, read
+    /// every 20 ms) closes before the face passes the plate.
+    pub regrip_speed_m_s: f64,
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
     /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
@@ -98,6 +113,12 @@ pub struct MissionConfig {
     /// (ours: on; the original never checked, original-system.md §6.4).
     #[serde(skip)]
     pub confirm_release: bool,
+    /// While carrying, watch the switch: when it opens the part has fallen off the magnet,
+    /// and the robot stops to pick it up again (or gives the action up) instead of
+    /// carrying nothing to the drop. Not a key: it follows `[competition] policy` (ours: on;
+    /// the original never watched, original-system.md §6.4).
+    #[serde(skip)]
+    pub watch_carried_part: bool,
 }
 
 impl Default for MissionConfig {
@@ -110,8 +131,12 @@ impl Default for MissionConfig {
             back_out_speed_m_s: 0.3,
             back_out_accel_m_s2: 2.0,
             max_attempts: 2,
+            lost_part_debounce_s: 0.1,
+            regrip_reach_m: 0.06,
+            regrip_speed_m_s: 0.08,
             exit_on_route_after_pick: false,
             confirm_release: true,
+            watch_carried_part: true,
         }
     }
 }
@@ -127,6 +152,7 @@ impl MissionConfig {
             release_settle_s: 0.0,
             exit_on_route_after_pick: true,
             confirm_release: false,
+            watch_carried_part: false,
             ..self
         }
     }
@@ -152,6 +178,11 @@ pub enum MissionEvent {
         /// Where it is now.
         slot: WaypointId,
     },
+    /// The switch opened while carrying: the part fell off the magnet; the robot stops and
+    /// creeps on to pick it up again.
+    PartSlipped,
+    /// The part that fell off is held again; the robot carries on to the drop.
+    Regripped,
     /// An action failed for good.
     Skipped {
         /// The action.
@@ -174,6 +205,8 @@ pub enum SkipReason {
     Unreachable,
     /// The part stayed on the magnet after release.
     Stuck,
+    /// The part fell off the magnet on the way and was not found straight ahead.
+    Dropped,
 }
 
 /// What the mission is doing now, for displays and for accounting where a round's time goes.
@@ -198,6 +231,8 @@ pub enum Activity {
     },
     /// Magnet off, waiting for the part to settle.
     Releasing,
+    /// Looking for a part that fell off the magnet on the way.
+    Regripping,
     /// Nothing left to do.
     Finished,
 }
@@ -225,12 +260,29 @@ enum State {
         then: AfterBackOut,
         since_us: u64,
     },
-    /// Carrying the part to its drop slot.
-    ToDrop { action: Action, since_us: u64 },
+    /// Carrying the part to its drop slot; `open_since_us`: since when the switch is open.
+    ToDrop {
+        action: Action,
+        since_us: u64,
+        open_since_us: Option<u64>,
+    },
+    /// The part fell off: looking for it.
+    Regripping(Search),
     /// Magnet off, waiting for the part to settle.
     Releasing { action: Action, since_us: u64 },
     /// Nothing left: stopped.
     Finished,
+}
+
+/// The search for a part that fell off the magnet: creeping on from `from`, magnet on,
+/// until the switch closes; then holding still for the grip to settle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Search {
+    action: Action,
+    from: Pose2,
+    since_us: u64,
+    /// Since when the switch is closed again.
+    held_since_us: Option<u64>,
 }
 
 /// Reverse speed kept after the time profile has run out while the estimate still shows
@@ -360,6 +412,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             State::BackingOut { .. } => Activity::BackingOut,
             State::ToDrop { action, .. } => Activity::ToDrop { slot: action.drop },
             State::Releasing { .. } => Activity::Releasing,
+            State::Regripping { .. } => Activity::Regripping,
             State::Finished => Activity::Finished,
         }
     }
@@ -432,6 +485,58 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         } else {
             self.skip(action, reason, now_us, events);
         }
+    }
+
+    /// One tick of the search for a part that fell off the magnet.
+    fn regrip(
+        &mut self,
+        search: Search,
+        now_us: u64,
+        pose: Pose2,
+        switch: bool,
+        events: &mut Vec<MissionEvent>,
+    ) -> BodyTwist {
+        let stop = BodyTwist::default();
+        let action = search.action;
+        let lost = |mission: &mut Self, events: &mut Vec<MissionEvent>| {
+            mission.solenoid_on = false;
+            mission.skip(action, SkipReason::Dropped, now_us, events);
+        };
+        if let Some(held_us) = search.held_since_us {
+            if Self::elapsed_s(now_us, held_us) < self.config.grip_settle_s {
+                return stop;
+            }
+            if switch {
+                events.push(MissionEvent::Regripped);
+                self.navigator.go_to(now_us, pose, action.drop, false);
+                self.state = State::ToDrop {
+                    action,
+                    since_us: now_us,
+                    open_since_us: None,
+                };
+            } else {
+                lost(self, events);
+            }
+            return stop;
+        }
+        if switch {
+            self.state = State::Regripping(Search {
+                held_since_us: Some(now_us),
+                ..search
+            });
+            return stop;
+        }
+        let speed = self.config.regrip_speed_m_s.max(1e-3);
+        // Braking from the carry's speed comes first: allow for it, then for the creep.
+        let limit_s = 1.0 + 2.0 * self.config.regrip_reach_m / speed;
+        let travelled = search.from.position().distance(pose.position());
+        if travelled >= self.config.regrip_reach_m
+            || Self::elapsed_s(now_us, search.since_us) > limit_s
+        {
+            lost(self, events);
+            return stop;
+        }
+        BodyTwist::new(speed, 0.0, 0.0)
     }
 
     fn advance(
@@ -517,6 +622,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         self.state = State::ToDrop {
                             action,
                             since_us: now_us,
+                            open_since_us: None,
                         };
                     } else {
                         self.state = State::BackingOut {
@@ -556,6 +662,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         self.state = State::ToDrop {
                             action,
                             since_us: now_us,
+                            open_since_us: None,
                         };
                     }
                     AfterBackOut::Retry(action, attempt) => {
@@ -573,7 +680,31 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 }
                 stop
             }
-            State::ToDrop { action, since_us } => {
+            State::ToDrop {
+                action,
+                since_us,
+                open_since_us,
+            } => {
+                if self.config.watch_carried_part {
+                    let open_since_us = (!switch).then(|| open_since_us.unwrap_or(now_us));
+                    if open_since_us.is_some_and(|t| {
+                        Self::elapsed_s(now_us, t) >= self.config.lost_part_debounce_s
+                    }) {
+                        events.push(MissionEvent::PartSlipped);
+                        self.state = State::Regripping(Search {
+                            action,
+                            from: pose,
+                            since_us: now_us,
+                            held_since_us: None,
+                        });
+                        return stop;
+                    }
+                    self.state = State::ToDrop {
+                        action,
+                        since_us,
+                        open_since_us,
+                    };
+                }
                 // Carrying, the switch is pressed by the part: the follower must arrive at the
                 // pose, not stop at the switch.
                 let (twist, arrival) = self.navigator.update(now_us, pose, false);
@@ -606,6 +737,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     Arrival::Moving => twist,
                 }
             }
+            State::Regripping(search) => self.regrip(search, now_us, pose, switch, events),
             State::Releasing { action, since_us } => {
                 if Self::elapsed_s(now_us, since_us) >= self.config.release_settle_s {
                     self.state = State::BackingOut {
@@ -633,11 +765,13 @@ mod tests {
         goals: Vec<(WaypointId, bool)>,
         unreachable: Vec<WaypointId>,
         failing: bool,
+        /// Ticks every drive takes beyond the first five.
+        extra_ticks: u32,
     }
 
     impl Navigator for FakeNavigator {
         fn go_to(&mut self, _now_us: u64, _pose: Pose2, goal: WaypointId, dock: bool) {
-            self.ticks_left = 5;
+            self.ticks_left = 5 + self.extra_ticks;
             self.dock = dock;
             self.failing = self.unreachable.contains(&goal);
             self.goals.push((goal, dock));
@@ -692,16 +826,64 @@ mod tests {
         mut switch: impl FnMut(&State, bool) -> bool,
         ticks: u32,
     ) -> Vec<MissionEvent> {
+        run_along(mission, |state, magnet, _| switch(state, magnet), ticks)
+    }
+
+    /// [`run`] with the robot's x (m) given to the switch too.
+    fn run_along(
+        mission: &mut Mission<FakeNavigator, Script>,
+        mut switch: impl FnMut(&State, bool, f64) -> bool,
+        ticks: u32,
+    ) -> Vec<MissionEvent> {
         let mut events = Vec::new();
         let mut pose = Pose2::default();
         for k in 0..ticks {
             let now = u64::from(k) * 20_000;
-            let pressed = switch(&mission.state, mission.solenoid_on);
+            let pressed = switch(&mission.state, mission.solenoid_on, pose.x);
             let out = mission.tick(now, pose, pressed);
             pose.x += out.twist.vx_m_s * 0.02;
             events.extend(out.events);
         }
         events
+    }
+
+    /// A mission (ours, or `config`) whose carry to the drop lasts 25 ticks, and a switch
+    /// that says the part is held until the carry's third tick; then it is open for
+    /// `bounce_ticks` (for good with `None`: the part is on the floor) and closes again only
+    /// once the robot has crept `found_ahead_m` on from where the search began, if ever.
+    fn carry_losing_the_part(
+        config: MissionConfig,
+        found_ahead_m: Option<f64>,
+        bounce_ticks: Option<u32>,
+    ) -> (Mission<FakeNavigator, Script>, Vec<MissionEvent>) {
+        let mut m = mission(vec![A]);
+        m.config = MissionConfig {
+            exit_on_route_after_pick: true,
+            ..config
+        };
+        m.navigator.extra_ticks = 20;
+        let mut carry_ticks = 0;
+        let mut search_from: Option<f64> = None;
+        let events = run_along(
+            &mut m,
+            |state, magnet, x| match state {
+                State::ToPick { .. } | State::Gripping { .. } => true,
+                // Picked up again: held to the drop.
+                State::ToDrop { .. } if search_from.is_some() => magnet,
+                State::ToDrop { .. } => {
+                    carry_ticks += 1;
+                    let fell = carry_ticks >= 3 && bounce_ticks.is_none_or(|n| carry_ticks < 3 + n);
+                    magnet && !fell
+                }
+                State::Regripping(_) => {
+                    let from = *search_from.get_or_insert(x);
+                    magnet && found_ahead_m.is_some_and(|d| x - from >= d)
+                }
+                _ => false,
+            },
+            300,
+        );
+        (m, events)
     }
 
     fn mission(todo: Vec<Action>) -> Mission<FakeNavigator, Script> {
@@ -843,6 +1025,99 @@ mod tests {
             400,
         );
         assert!(backed_out);
+    }
+
+    #[test]
+    fn a_part_that_falls_off_on_the_way_is_found_ahead_picked_up_again_and_placed() {
+        let (m, events) = carry_losing_the_part(MissionConfig::default(), Some(0.03), None);
+        assert_eq!(
+            events,
+            [
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 1
+                },
+                MissionEvent::Picked { slot: A.pick },
+                MissionEvent::PartSlipped,
+                MissionEvent::Regripped,
+                MissionEvent::Placed { slot: A.drop },
+                MissionEvent::Finished,
+            ]
+        );
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        // The carry to the drop starts again from where the part was found.
+        assert_eq!(
+            m.navigator.goals,
+            [(A.pick, true), (A.drop, false), (A.drop, false)]
+        );
+    }
+
+    #[test]
+    fn a_part_that_fell_off_and_is_not_ahead_is_given_up_with_the_magnet_off_after_a_bounded_creep()
+    {
+        let config = MissionConfig::default();
+        let mut m = mission(vec![A]);
+        m.config.exit_on_route_after_pick = true;
+        m.navigator.extra_ticks = 20;
+        let mut crept_m = 0.0;
+        let mut carry_ticks = 0;
+        let mut pose = Pose2::default();
+        let mut events = Vec::new();
+        for k in 0..300u64 {
+            let pressed = match m.state {
+                State::ToPick { .. } | State::Gripping { .. } => true,
+                State::ToDrop { .. } => {
+                    carry_ticks += 1;
+                    carry_ticks < 3
+                }
+                _ => false,
+            };
+            let searching = matches!(m.state, State::Regripping(_));
+            let out = m.tick(k * 20_000, pose, pressed);
+            if searching {
+                crept_m += out.twist.vx_m_s * 0.02;
+            }
+            pose.x += out.twist.vx_m_s * 0.02;
+            events.extend(out.events);
+        }
+        assert_eq!(
+            &events[2..],
+            [
+                MissionEvent::PartSlipped,
+                MissionEvent::Skipped {
+                    action: A,
+                    reason: SkipReason::Dropped
+                },
+                MissionEvent::Finished,
+            ]
+        );
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+        assert!(
+            !m.solenoid_on,
+            "the magnet goes off once the part is given up"
+        );
+        assert!(crept_m > 0.0, "it looked for the part");
+        assert!(
+            crept_m <= config.regrip_reach_m + config.regrip_speed_m_s * 0.02 + 1e-9,
+            "the creep is bounded: {crept_m} m"
+        );
+    }
+
+    #[test]
+    fn a_switch_bouncing_shorter_than_the_debounce_while_carrying_is_not_a_loss() {
+        let (m, events) = carry_losing_the_part(MissionConfig::default(), None, Some(3));
+        assert!(!events.contains(&MissionEvent::PartSlipped), "{events:?}");
+        assert!(events.contains(&MissionEvent::Placed { slot: A.drop }));
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+    }
+
+    #[test]
+    fn the_original_does_not_watch_the_switch_while_carrying() {
+        // Faithful to the original: the part fell off, the robot drives on and "places" it.
+        let (m, events) =
+            carry_losing_the_part(MissionConfig::default().original(), Some(0.03), None);
+        assert!(!events.contains(&MissionEvent::PartSlipped), "{events:?}");
+        assert_eq!(m.actions().outcomes, [(A, true)]);
     }
 
     #[test]

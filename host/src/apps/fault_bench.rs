@@ -263,6 +263,8 @@ fn story_line(field: &Field, event: &RoundEvent) -> Option<String> {
         RoundEvent::Core { time, event } => match event {
             Event::ActionStarted { .. }
             | Event::Picked { .. }
+            | Event::PartSlipped { .. }
+            | Event::Regripped { .. }
             | Event::Placed { .. }
             | Event::Skipped { .. }
             | Event::ServerDisagrees { .. }

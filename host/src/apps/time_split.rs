@@ -134,7 +134,7 @@ impl Tap for TimeSplitTap {
         let class = match activity {
             Activity::Planning | Activity::Finished => Class::Waiting,
             Activity::Gripping | Activity::Releasing => Class::Settling,
-            Activity::BackingOut => Class::Docking,
+            Activity::BackingOut | Activity::Regripping => Class::Docking,
             Activity::ToPick { slot } | Activity::ToDrop { slot } => {
                 if self.near_goal(slot, step) {
                     Class::Docking

@@ -201,6 +201,30 @@ impl MissionConfig {
             "m/s²",
             "1.5 g: more than rubber's friction gives on any floor",
         );
+        c.within(
+            "lost_part_debounce_s",
+            self.lost_part_debounce_s,
+            0.02,
+            2.0,
+            "s",
+            "from one telemetry batch (20 ms) to a time in which the robot crosses the floor",
+        );
+        c.within(
+            "regrip_reach_m",
+            self.regrip_reach_m,
+            0.0,
+            0.3,
+            "m",
+            "a part further than a body length away was not lost at the face",
+        );
+        c.within(
+            "regrip_speed_m_s",
+            self.regrip_speed_m_s,
+            0.01,
+            0.5,
+            "m/s",
+            "a creep: the switch must close before the face passes the plate",
+        );
         c.within_int(
             "max_attempts",
             self.max_attempts,

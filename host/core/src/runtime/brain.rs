@@ -92,6 +92,7 @@ impl Brain {
                 Policy::Ours => MissionConfig {
                     exit_on_route_after_pick: true,
                     confirm_release: true,
+                    watch_carried_part: true,
                     ..config.mission
                 },
                 Policy::Original => config.mission.original(),
@@ -273,6 +274,8 @@ fn describe(actions: &TaskActions, event: MissionEvent) -> Event {
             slot,
             color: actions.last_placed_color().or(color),
         },
+        MissionEvent::PartSlipped => Event::PartSlipped { color },
+        MissionEvent::Regripped => Event::Regripped { color },
         MissionEvent::Skipped { action, reason } => Event::Skipped {
             pick: action.pick,
             drop: action.drop,

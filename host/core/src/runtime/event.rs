@@ -47,6 +47,17 @@ pub enum Event {
         /// Its colour as the planner knew it when picked.
         color: Option<PartColor>,
     },
+    /// The switch opened while carrying: the part fell off the magnet; the robot stops and
+    /// creeps on to pick it up again.
+    PartSlipped {
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
+    /// The part that fell off is held again.
+    Regripped {
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
     /// An action failed for good; the planner carries on with the other parts.
     Skipped {
         /// Where the part stood.
@@ -205,12 +216,20 @@ impl Event {
             Self::Placed { slot: at, color } => {
                 format!("placed {} on {}", color_word(*color), slot(at))
             }
+            Self::PartSlipped { color } => format!(
+                "the {} part fell off the magnet: stopped, creeping on to pick it up again",
+                color_word(*color)
+            ),
+            Self::Regripped { color } => {
+                format!("picked the {} part up again", color_word(*color))
+            }
             Self::Skipped { pick, drop, reason } => {
                 let why = match reason {
                     SkipReason::NoContact => "the switch never closed on it",
                     SkipReason::NotHeld => "the magnet did not hold it",
                     SkipReason::Unreachable => "no way there in time",
                     SkipReason::Stuck => "it stayed on the magnet",
+                    SkipReason::Dropped => "it fell off the magnet and was not found ahead",
                 };
                 format!(
                     "gave up the part at {} for {}: {why}",
