@@ -10,6 +10,11 @@
 //! released, the part drops where it is and stands in a slot if it lands between the slot's
 //! dividers (see `SLOT_CAPTURE_*`).
 //!
+//! Each part standing in a slot has its own pose there: the referee's placement (drawn per
+//! seed, [`crate::truth::PartSeat`]), or where the robot released it. The world pushes a
+//! free part the robot runs into ([`Shop::push`]); a part pushed out of its slot's capture
+//! zone stands on the floor and is no longer that slot's part.
+//!
 //! Machines (competition.md §2): a part dropped on a machine's input is turned after the
 //! processing delay and appears on the same row's output once that is free. Machine A turns
 //! red into green (and, when allowed, green into blue: round 2 lets greens use either
@@ -20,10 +25,12 @@ use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::geometry::{Pose2, Vec2, wrap_angle};
 use ratf_core::field::stations::{
-    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot,
+    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot, SlotKind,
 };
 use ratf_core::field::waypoints::WaypointId;
 use std::f64::consts::PI;
+
+use crate::truth::PartSeat;
 
 /// Where a part is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +52,9 @@ pub struct Part {
     pub place: PartPlace,
 }
 
+/// Half of the default 30 cm body, m: the front face [`PICK_STANDOFF_M`] was set from.
+const DEFAULT_FRONT_M: f64 = 0.150;
+
 /// Where the switch and the magnet reach. Assumptions (the original's gripper is not
 /// documented beyond "micro-switch with roller lever" and "Grove electromagnet").
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,6 +68,10 @@ pub struct Gripper {
     pub lateral_tolerance_m: f64,
     /// Largest angle between the robot's heading and the plate's inward normal, rad (15°).
     pub angle_tolerance_rad: f64,
+    /// Distance from the robot centre to the magnet's face, m: [`PICK_STANDOFF_M`] on the
+    /// default 30 cm body, so the magnet stands 15 mm proud of the front face and a held
+    /// plate is where it is at a slot's pick pose.
+    pub magnet_m: f64,
 }
 
 impl Gripper {
@@ -68,6 +82,7 @@ impl Gripper {
             reach_m: 0.020,
             lateral_tolerance_m: 0.025,
             angle_tolerance_rad: 15f64.to_radians(),
+            magnet_m: PICK_STANDOFF_M + (front_m - DEFAULT_FRONT_M),
         }
     }
 }
@@ -121,6 +136,8 @@ pub struct Shop {
     /// Every machine row: (input slot, machine type, output slot).
     machine_rows: Vec<(WaypointId, MachineKind, WaypointId)>,
     parts: Vec<Part>,
+    /// Each part's pose in the world while it stands in a slot.
+    seated: Vec<Pose2>,
     processing: Vec<Processing>,
     machine_delay_us: u64,
     green_to_blue_at_a: bool,
@@ -152,7 +169,7 @@ impl Shop {
         green_to_blue_at_a: bool,
         gripper: Gripper,
     ) -> Self {
-        let parts = incoming
+        let parts: Vec<Part> = incoming
             .iter()
             .enumerate()
             .filter_map(|(i, color)| {
@@ -173,10 +190,22 @@ impl Shop {
                     .map(move |m| (m.input.waypoint, kind, m.output.waypoint))
             })
             .collect();
+        let slots: Vec<Slot> = field.slots().copied().collect();
+        let seated = parts
+            .iter()
+            .map(|part| match part.place {
+                PartPlace::Slot(id) => slots
+                    .iter()
+                    .find(|s| s.waypoint == id)
+                    .map_or(Pose2::default(), slot_frame),
+                _ => Pose2::default(),
+            })
+            .collect();
         Self {
-            slots: field.slots().copied().collect(),
+            slots,
             machine_rows,
             parts,
+            seated,
             processing: Vec::new(),
             machine_delay_us,
             green_to_blue_at_a,
@@ -218,12 +247,31 @@ impl Shop {
         self.slots.iter().find(|s| s.waypoint == id)
     }
 
+    /// Moves each incoming part to where the referee placed it in its slot (`seats` in
+    /// incoming slot order; an empty slot's seat is unused). The world then pushes a part
+    /// drawn into a divider or the wall clear of it.
+    pub fn seat_incoming(&mut self, seats: &[PartSeat; 4]) {
+        let incoming: Vec<Slot> = self
+            .slots
+            .iter()
+            .filter(|s| s.kind == SlotKind::Incoming)
+            .copied()
+            .collect();
+        for (slot, seat) in incoming.iter().zip(seats) {
+            if let Some(part) = self.part_in(slot.waypoint) {
+                let yaw = seat.yaw_deg.to_radians();
+                // Out from the wall by the gap, plus what a turned part's back corner needs.
+                let corner = PART_DEPTH_M / 2.0 * yaw.cos() + PART_WIDTH_M / 2.0 * yaw.sin().abs();
+                let out = seat.gap_m + corner - PART_DEPTH_M / 2.0;
+                self.seated[part] = slot_frame(slot).compose(Pose2::new(out, seat.across_m, yaw));
+            }
+        }
+    }
+
     /// A part's footprint in the world, given the robot's pose (for a carried part).
     pub fn footprint(&self, part: usize, robot: Pose2) -> OrientedRect {
         let pose = match self.parts[part].place {
-            PartPlace::Slot(id) => self.slot(id).map_or(robot, |slot| {
-                Pose2::new(slot.box_center.x, slot.box_center.y, slot.face_normal_rad)
-            }),
+            PartPlace::Slot(_) => self.seated[part],
             PartPlace::Carried(local) => robot.compose(local),
             PartPlace::Floor(pose) => pose,
         };
@@ -273,7 +321,7 @@ impl Shop {
                         -self.gripper.lateral_tolerance_m,
                         self.gripper.lateral_tolerance_m,
                     );
-                    let held = Pose2::new(PICK_STANDOFF_M + PART_DEPTH_M / 2.0, lateral, PI);
+                    let held = Pose2::new(self.gripper.magnet_m + PART_DEPTH_M / 2.0, lateral, PI);
                     self.parts[part].place = PartPlace::Carried(held);
                     self.processing.retain(|p| p.part != part);
                     events.push(PartEvent::Picked { part, from });
@@ -306,6 +354,30 @@ impl Shop {
         }
     }
 
+    /// Contact: the world moves standing part `part` by `by` (m, world frame) to keep it out
+    /// of the robot, a wall or another part. It stays its slot's part while it stands within
+    /// the slot's capture zone ([`Self::slot_at`]); pushed beyond, it stands on the floor
+    /// (and a machine working on it lets it go). A push never puts a part into a slot: only a
+    /// release does. A carried part is not pushed (the robot carries it).
+    pub fn push(&mut self, part: usize, by: Vec2) {
+        let Some(place) = self.parts.get(part).map(|p| p.place) else {
+            return;
+        };
+        let moved = |pose: Pose2| Pose2::new(pose.x + by.x, pose.y + by.y, pose.yaw_rad);
+        match place {
+            PartPlace::Slot(id) => {
+                let pose = moved(self.seated[part]);
+                if self.slot_at(pose).is_some_and(|s| s.waypoint == id) {
+                    self.seated[part] = pose;
+                } else {
+                    self.put_on_floor(part, pose);
+                }
+            }
+            PartPlace::Floor(pose) => self.parts[part].place = PartPlace::Floor(moved(pose)),
+            PartPlace::Carried(_) => {}
+        }
+    }
+
     /// The slot a part standing at `world` would be in (between its dividers, plate facing
     /// the slot's way), if any.
     pub fn slot_at(&self, world: Pose2) -> Option<&Slot> {
@@ -328,6 +400,8 @@ impl Shop {
         match capture.copied() {
             Some(slot) if self.part_in(slot.waypoint).is_none() => {
                 self.parts[part].place = PartPlace::Slot(slot.waypoint);
+                // It stands where it was let go.
+                self.seated[part] = world;
                 let row = self
                     .machine_rows
                     .iter()
@@ -386,6 +460,11 @@ impl Shop {
                     color: job.new_color,
                     place: PartPlace::Slot(job.output),
                 };
+                // The machine's output: centred against the wall (the mover is not
+                // specified; competition.md §1.3).
+                if let Some(output) = self.slot(job.output) {
+                    self.seated[job.part] = slot_frame(output);
+                }
                 events.push(PartEvent::Processed {
                     part: job.part,
                     color: job.new_color,
@@ -396,6 +475,12 @@ impl Shop {
             }
         }
     }
+}
+
+/// A slot's frame: at the centre of a part standing centred against the slot's back wall,
+/// x along the plate's outward normal.
+fn slot_frame(slot: &Slot) -> Pose2 {
+    Pose2::new(slot.box_center.x, slot.box_center.y, slot.face_normal_rad)
 }
 
 #[cfg(test)]
