@@ -607,6 +607,64 @@ mod tests {
     }
 
     #[test]
+    fn a_part_seated_off_centre_stands_there_and_is_picked_at_the_pick_pose() {
+        let field = Field::competition();
+        let slot = *field.incoming_slot(0).unwrap();
+        // A realistic placement picked at the pick pose; the harshest drawn (20 mm across,
+        // 15 mm from the wall, 8° turned) stands 21 mm proud, into where the body would be at
+        // the pick pose: the switch closes 15 mm short of it.
+        for (across_m, gap_m, yaw_deg, standoff_m) in
+            [(0.01, 0.005, 3.0, 0.165), (-0.02, 0.015, -8.0, 0.18)]
+        {
+            let robot = slot.pose_at_standoff(standoff_m);
+            let mut shop = shop(&field, 0);
+            let seat = PartSeat {
+                across_m,
+                gap_m,
+                yaw_deg,
+            };
+            shop.seat_incoming(&[seat; 4]);
+            let at = slot_frame(&slot).relative(shop.footprint(0, slot.pick_pose).pose);
+            assert!((at.y - across_m).abs() < 1e-12, "{at:?}");
+            assert!((at.yaw_rad.to_degrees() - yaw_deg).abs() < 1e-9);
+            // Its back corner is the gap from the wall (x = −30 mm in the slot's frame).
+            let yaw = yaw_deg.to_radians();
+            let back = at.x - (0.03 * yaw.cos() + 0.045 * yaw.sin().abs());
+            assert!((back + 0.03 - gap_m).abs() < 1e-12, "{at:?}");
+            assert_eq!(shop.part_in(slot.waypoint), Some(0));
+            assert_eq!(shop.switch_contact(robot), Some(0));
+            assert_eq!(
+                shop.step(0, robot, true),
+                [PartEvent::Picked {
+                    part: 0,
+                    from: Some(slot.waypoint)
+                }]
+            );
+        }
+    }
+
+    #[test]
+    fn a_pushed_part_stays_its_slots_until_it_leaves_the_slot() {
+        let field = Field::competition();
+        let slot = *field.incoming_slot(1).unwrap();
+        let mut shop = shop(&field, 0);
+        let out = Vec2::from_angle(slot.face_normal_rad);
+        // 1 cm out of the slot: still there, 1 cm further out.
+        shop.push(1, out * 0.01);
+        assert_eq!(shop.part_in(slot.waypoint), Some(1));
+        let at = shop.footprint(1, slot.pick_pose).pose;
+        assert!((at.position() - slot.box_center - out * 0.01).norm() < 1e-12);
+        // 5 cm more: on the floor, the slot empty for the server.
+        shop.push(1, out * 0.05);
+        assert_eq!(shop.part_in(slot.waypoint), None);
+        assert!(matches!(shop.parts()[1].place, PartPlace::Floor(_)));
+        assert_eq!(shop.letters([50, 51, 52, 53].map(WaypointId)), "RXXB");
+        // Pushed back in, it stays on the floor: only a release puts a part into a slot.
+        shop.push(1, out * -0.06);
+        assert!(matches!(shop.parts()[1].place, PartPlace::Floor(_)));
+    }
+
+    #[test]
     fn machine_b_refuses_red_and_a_waits_for_a_free_output() {
         let field = Field::competition();
         let mut shop = shop(&field, 0);

@@ -404,6 +404,9 @@ mod tests {
         assert_eq!(truth, WorldTruth::ideal(&beliefs, 0.005));
         assert_eq!(truth.true_config(&beliefs), beliefs);
         assert_eq!(truth.true_field(&beliefs), Field::competition());
+        // Parts exactly centred against their walls, the body the config's centred outline.
+        assert_eq!(truth.part_seats, [PartSeat::default(); 4]);
+        assert_eq!(truth.body_offset_m, [0.0; 2]);
     }
 
     #[test]
@@ -414,6 +417,10 @@ mod tests {
             let b = WorldTruth::draw(&config(world, 2), 0.0);
             assert_ne!(a.lidar_range_scale, b.lidar_range_scale);
             assert_ne!(a.beacon_errors_m, b.beacon_errors_m);
+            assert_ne!(a.part_seats, b.part_seats);
+            assert_ne!(a.body_offset_m, b.body_offset_m);
+            // The four parts are placed independently.
+            assert_ne!(a.part_seats[0], a.part_seats[1]);
             let k = if world == WorldProfile::Realistic {
                 Spread::REALISTIC
             } else {
@@ -431,6 +438,17 @@ mod tests {
                         .iter()
                         .all(|g| (g - 1.0).abs() <= k.motor_gain)
                 );
+                for seat in t.part_seats {
+                    assert!(seat.across_m.abs() <= k.part_across_m);
+                    assert!((0.0..=k.part_gap_m).contains(&seat.gap_m));
+                    assert!(seat.yaw_deg.abs() <= k.part_yaw_deg);
+                }
+                let believed = Config::default().robot;
+                assert!(
+                    (t.footprint_length_m - believed.footprint_length_m).abs() <= k.body_size_m
+                );
+                assert!((t.footprint_width_m - believed.footprint_width_m).abs() <= k.body_size_m);
+                assert!(t.body_offset_m.iter().all(|o| o.abs() <= k.body_offset_m));
             }
         }
     }
@@ -445,6 +463,8 @@ mod tests {
         let diameter_ratio = world.robot.wheel_diameter_m / beliefs.robot.wheel_diameter_m;
         assert!((diameter_ratio - truth.mean_wheel_radius_scale()).abs() < 1e-12);
         assert_eq!(world.motor.battery_voltage_v, truth.battery_voltage_v);
+        assert_eq!(world.robot.footprint_length_m, truth.footprint_length_m);
+        assert_eq!(world.robot.footprint_width_m, truth.footprint_width_m);
         // What the robot decides with is untouched.
         assert_eq!(world.navigation, beliefs.navigation);
         assert_eq!(world.localisation, beliefs.localisation);

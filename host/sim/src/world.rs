@@ -912,6 +912,52 @@ mod tests {
     }
 
     #[test]
+    fn a_robot_creeping_onto_an_off_centre_part_picks_it_without_a_collision() {
+        // Realistic worlds: each part off centre in its slot, the body's outline off the
+        // config's. The robot creeps at 0.05 m/s from 2 cm short of the nominal pick pose
+        // with the magnet on, as the mission's docking does.
+        for seed in 1..=5 {
+            let mut config = Config::default();
+            config.sim.world = ratf_core::config::WorldProfile::Realistic;
+            config.sim.seed = seed;
+            let slot = *Field::competition().incoming_slot(2).unwrap();
+            let mut world = World::new(
+                &config,
+                &Scenario {
+                    start_pose: slot.pose_at_standoff(0.185),
+                    incoming: [Some(PartColor::Red); 4],
+                    ..Scenario::new(&config)
+                },
+            );
+            let seat = world.truth().part_seats[2];
+            assert!(seat.across_m != 0.0 && seat.yaw_deg != 0.0);
+            drive_until(
+                &mut world,
+                ratf_core::kinematics::BodyTwist::new(0.05, 0.0, 0.0),
+                true,
+                1500,
+                |w| w.shop().carried().is_some(),
+            );
+            assert!(
+                world.part_events().iter().any(|(_, e)| matches!(
+                    e,
+                    PartEvent::Picked {
+                        part: 2,
+                        from: Some(_)
+                    }
+                )),
+                "seed {seed}: {seat:?} {:?}",
+                world.part_events()
+            );
+            assert!(
+                world.collisions().is_empty(),
+                "seed {seed}: {:?}",
+                world.collisions()
+            );
+        }
+    }
+
+    #[test]
     fn every_serial_line_is_bounded_and_counts_what_it_drops() {
         // Issue 13: `[mega] control_period_us = 1` (with a 1 µs step) grew the Mega → host
         // line without bound. Unvalidated here, on purpose: the world itself stays bounded.
