@@ -138,6 +138,9 @@ pub struct Shop {
     parts: Vec<Part>,
     /// Each part's pose in the world while it stands in a slot.
     seated: Vec<Pose2>,
+    /// A released part stands where it was let go (false: centred in its slot, the ideal
+    /// world's way).
+    where_released: bool,
     processing: Vec<Processing>,
     machine_delay_us: u64,
     green_to_blue_at_a: bool,
@@ -206,6 +209,7 @@ impl Shop {
             machine_rows,
             parts,
             seated,
+            where_released: false,
             processing: Vec::new(),
             machine_delay_us,
             green_to_blue_at_a,
@@ -266,6 +270,12 @@ impl Shop {
                 self.seated[part] = slot_frame(slot).compose(Pose2::new(out, seat.across_m, yaw));
             }
         }
+    }
+
+    /// Whether a part released into a slot stands where it was let go (worlds with contact)
+    /// or centred against the slot's wall (the ideal world, as before contact).
+    pub fn set_standing_where_released(&mut self, where_released: bool) {
+        self.where_released = where_released;
     }
 
     /// A part's footprint in the world, given the robot's pose (for a carried part).
@@ -400,8 +410,11 @@ impl Shop {
         match capture.copied() {
             Some(slot) if self.part_in(slot.waypoint).is_none() => {
                 self.parts[part].place = PartPlace::Slot(slot.waypoint);
-                // It stands where it was let go.
-                self.seated[part] = world;
+                self.seated[part] = if self.where_released {
+                    world
+                } else {
+                    slot_frame(&slot)
+                };
                 let row = self
                     .machine_rows
                     .iter()

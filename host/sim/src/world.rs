@@ -28,7 +28,9 @@
 //! without turning, until a wall, a pole or another part stops it; then the robot stops too.
 //! Each new contact of the robot or its carried part is a [`Collision`], except the carried
 //! part touching the slot it is being placed in or picked from (the magnet presses it there
-//! by design).
+//! by design). The `ideal` world keeps today's simulator for regression: no contact, the
+//! body passes through and each overlap deeper than 2 mm counts as a collision; its parts
+//! stand exactly centred, also where the robot released them.
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -43,11 +45,11 @@ use crate::motor::Motor;
 use crate::parts::{Gripper, PartEvent, Shop};
 use crate::serial::SerialLine;
 use crate::truth::WorldTruth;
-use ratf_core::config::{Config, MotorConfig};
+use ratf_core::config::{Config, MotorConfig, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::PartColor;
-use ratf_core::field::geometry::Pose2;
+use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::kinematics::Mecanum;
 use ratf_core::rng::SimRng;
 
@@ -190,8 +192,10 @@ pub struct World {
     obstacles: Vec<OrientedRect>,
     /// The robot frame's pose of the body's outline (its centre off the wheels' centre).
     body_offset: Pose2,
-    /// What the robot (or its carried part) is in contact with.
+    /// What the robot (or its carried part) is in contact with (overlaps, in the ideal world).
     in_contact: Vec<Obstruction>,
+    /// Contact physics on: every world but `ideal`, which stays today's for regression.
+    contact: bool,
     collisions: Vec<Collision>,
     part_events: Vec<(u64, PartEvent)>,
     tick_poses: Vec<Pose2>,
@@ -235,6 +239,7 @@ impl World {
             gripper,
         );
         shop.seat_incoming(&truth.part_seats);
+        shop.set_standing_where_released(truth.profile != WorldProfile::Ideal);
         let mut built = Self {
             step_ns: u64::from(config.sim.time_step_us) * 1000,
             body: Body::at_rest(scenario.start_pose),
@@ -268,6 +273,7 @@ impl World {
                 .collect(),
             body_offset,
             in_contact: Vec::new(),
+            contact: truth.profile != WorldProfile::Ideal,
             collisions: Vec::new(),
             part_events: Vec::new(),
             tick_poses: Vec::new(),
@@ -485,7 +491,9 @@ impl World {
             self.grip,
             dt_s,
         );
-        self.resolve_contacts(now_us);
+        if self.contact {
+            self.resolve_contacts(now_us);
+        }
         if slip.slipped || self.grip < 1.0 {
             self.stats.slip_steps += 1;
         }
@@ -513,6 +521,9 @@ impl World {
             .step(now_us, self.body.pose, self.actuation.solenoid_on)
         {
             self.part_events.push((now_us, event));
+        }
+        if !self.contact {
+            self.check_collisions(now_us);
         }
     }
 
@@ -560,6 +571,66 @@ impl World {
     /// Rounds of projection per step: a part pushed against a wall pushes back on the
     /// robot, which may then touch something else. Four: more than a corner needs.
     const CONTACT_ROUNDS: usize = 4;
+
+    /// The ideal world's collisions (today's world, kept for regression): no contact, the
+    /// body passes through; each new overlap deeper than the tolerance counts once.
+    fn check_collisions(&mut self, now_us: u64) {
+        let robot = self.footprint();
+        let carried = self.shop.carried();
+        let mut bodies = vec![robot];
+        if let Some(part) = carried {
+            // A carried part inside a slot is being picked or placed: it rests against that
+            // slot's wall and dividers by design (no contact physics holds it back), so only
+            // the robot's body counts there.
+            let footprint = self.shop.footprint(part, self.body.pose);
+            if self.shop.slot_at(footprint.pose).is_none() {
+                bodies.push(footprint);
+            }
+        }
+        let mut now_overlapping = Vec::new();
+        for (i, wall) in self.obstacles.iter().enumerate() {
+            if bodies
+                .iter()
+                .any(|b| b.penetrates(wall, Self::CONTACT_TOLERANCE_M))
+            {
+                now_overlapping.push(Obstruction::Wall(i));
+            }
+        }
+        for beacon in self.field.beacons() {
+            if bodies.iter().any(|b| {
+                circle_overlaps(
+                    b,
+                    beacon.circle.center,
+                    beacon.circle.radius_m - Self::CONTACT_TOLERANCE_M,
+                )
+            }) {
+                now_overlapping.push(Obstruction::Beacon(beacon.index));
+            }
+        }
+        for part in 0..self.shop.parts().len() {
+            if Some(part) == carried {
+                continue;
+            }
+            let rect = self.shop.footprint(part, self.body.pose);
+            if bodies
+                .iter()
+                .any(|b| b.penetrates(&rect, Self::CONTACT_TOLERANCE_M))
+            {
+                now_overlapping.push(Obstruction::Part(part));
+            }
+        }
+        for &with in &now_overlapping {
+            if !self.in_contact.contains(&with) {
+                self.collisions.push(Collision {
+                    time_us: now_us,
+                    with,
+                    pose: self.body.pose,
+                });
+                self.stats.collisions += 1;
+            }
+        }
+        self.in_contact = now_overlapping;
+    }
 
     /// The robot's solids: its body, and the part it carries. `true` for the carried part.
     fn robot_solids(&self) -> Vec<(OrientedRect, bool)> {
@@ -710,6 +781,16 @@ impl World {
     }
 }
 
+/// True when the circle (`center`, `radius_m`) overlaps the rectangle's interior.
+fn circle_overlaps(rect: &OrientedRect, center: Vec2, radius_m: f64) -> bool {
+    let local = rect.pose.inverse_transform_point(center);
+    let nearest = Vec2::new(
+        local.x.clamp(-rect.half_x_m, rect.half_x_m),
+        local.y.clamp(-rect.half_y_m, rect.half_y_m),
+    );
+    nearest.distance(local) < radius_m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -784,7 +865,8 @@ mod tests {
         assert_eq!(world.stats().collisions, 0);
     }
 
-    /// Drive `world` with a constant body twist for `steps` steps, the magnet as `solenoid`.
+    /// Drive `world` with a constant body twist for `steps` steps, the magnet off. (The
+    /// contact tests switch contact on in the ideal world, to keep its exact geometry.)
     fn drive(world: &mut World, twist: ratf_core::kinematics::BodyTwist, steps: usize) {
         drive_until(world, twist, false, steps, |_| false);
     }
@@ -817,6 +899,7 @@ mod tests {
         // Facing the machine A block from the left, 5 cm away, driving into it at 0.2 m/s
         // for 1.5 s: 30 cm of wheel travel.
         let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.05, -0.075, 0.0));
+        world.contact = true;
         drive(
             &mut world,
             ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0),
@@ -861,6 +944,7 @@ mod tests {
         // Driving +x and −y at once into the same block: the front is stopped, the sideways
         // motion goes on along the dividers' tips.
         let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.02, 0.0, 0.0));
+        world.contact = true;
         drive(
             &mut world,
             ratf_core::kinematics::BodyTwist::new(0.2, -0.1, 0.0),
@@ -887,6 +971,7 @@ mod tests {
         // on the line of machine A's upper input slot (y = 0, between two dividers).
         let part_at = Pose2::new(-0.8 + 0.15 + 0.05 + 0.03, 0.0, std::f64::consts::PI);
         world.shop_mut().put_on_floor(0, part_at);
+        world.contact = true;
         drive(
             &mut world,
             ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0),
@@ -955,6 +1040,37 @@ mod tests {
                 world.collisions()
             );
         }
+    }
+
+    #[test]
+    fn the_ideal_world_has_no_contact_and_counts_a_wall_driven_through_once() {
+        // Facing the machine A block from the left, 5 cm away, driving into it.
+        let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.05, -0.075, 0.0));
+        let mut link = MegaLink::default();
+        let mecanum = Mecanum::new(&Config::default().robot);
+        let wheels = mecanum
+            .inverse(ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0))
+            .map(|w| w as f32);
+        for step in 0..800 {
+            if step % 20 == 0 {
+                let bytes = link.encode_references(wheels, false).unwrap();
+                world.send_to_mega(&bytes);
+            }
+            world.step();
+        }
+        let collisions = world.collisions();
+        assert!(!collisions.is_empty());
+        assert!(
+            collisions
+                .iter()
+                .all(|c| matches!(c.with, Obstruction::Wall(_)))
+        );
+        // With no contact physics it drives on through the block's dividers and wall; each
+        // obstruction counts once while the overlap lasts, not once per step.
+        let mut distinct: Vec<Obstruction> = collisions.iter().map(|c| c.with).collect();
+        distinct.sort();
+        distinct.dedup();
+        assert_eq!(distinct.len(), collisions.len(), "{collisions:?}");
     }
 
     #[test]
