@@ -1184,4 +1184,14 @@ mod tests {
             (0, 0, 0)
         );
     }
+
+    #[test]
+    fn beacon_overlap_uses_the_circle() {
+        let rect = OrientedRect::new(Pose2::new(0.0, 0.0, 0.0), 0.3, 0.3);
+        assert!(circle_overlaps(&rect, Vec2::new(0.19, 0.0), 0.045));
+        assert!(!circle_overlaps(&rect, Vec2::new(0.2, 0.0), 0.045));
+        // Near a corner the circle must reach the corner itself (0.042 m vs 0.057 m away).
+        assert!(circle_overlaps(&rect, Vec2::new(0.18, 0.18), 0.045));
+        assert!(!circle_overlaps(&rect, Vec2::new(0.19, 0.19), 0.045));
+    }
 }
