@@ -196,6 +196,8 @@ pub struct World {
     in_contact: Vec<Obstruction>,
     /// Contact physics on: every world but `ideal`, which stays today's for regression.
     contact: bool,
+    /// The walls, dividers and beacon poles as contact shapes (they never move).
+    fixed_solids: Vec<(Shape, Obstruction)>,
     collisions: Vec<Collision>,
     part_events: Vec<(u64, PartEvent)>,
     tick_poses: Vec<Pose2>,
@@ -274,6 +276,7 @@ impl World {
             body_offset,
             in_contact: Vec::new(),
             contact: truth.profile != WorldProfile::Ideal,
+            fixed_solids: fixed_solids(&field),
             collisions: Vec::new(),
             part_events: Vec::new(),
             tick_poses: Vec::new(),
@@ -642,27 +645,16 @@ impl World {
     }
 
     /// The robot's solids: its body, and the part it carries. `true` for the carried part.
-    fn robot_solids(&self) -> Vec<(OrientedRect, bool)> {
-        let mut solids = vec![(self.footprint(), false)];
-        if let Some(part) = self.shop.carried() {
-            solids.push((self.shop.footprint(part, self.body.pose), true));
-        }
-        solids
+    fn robot_solids(&self) -> impl Iterator<Item = (OrientedRect, bool)> + use<> {
+        let carried = self
+            .shop
+            .carried()
+            .map(|part| (self.shop.footprint(part, self.body.pose), true));
+        std::iter::once((self.footprint(), false)).chain(carried)
     }
 
     /// What stands on the floor: walls and dividers, beacon poles, and the parts not carried.
     fn floor_solids(&self) -> Vec<(Shape, Obstruction)> {
-        let walls = self
-            .obstacles
-            .iter()
-            .enumerate()
-            .map(|(i, wall)| (Shape::Rect(*wall), Obstruction::Wall(i)));
-        let beacons = self.field.beacons().iter().map(|b| {
-            (
-                Shape::Circle(b.circle.center, b.circle.radius_m),
-                Obstruction::Beacon(b.index),
-            )
-        });
         let carried = self.shop.carried();
         let parts = (0..self.shop.parts().len())
             .filter(|&part| Some(part) != carried)
@@ -672,7 +664,7 @@ impl World {
                     Obstruction::Part(part),
                 )
             });
-        walls.chain(beacons).chain(parts).collect()
+        self.fixed_solids.iter().copied().chain(parts).collect()
     }
 
     /// Push standing part `part` out of the walls, the poles and the other parts.
@@ -734,17 +726,20 @@ impl World {
             self.stats.contact_steps += 1;
         }
         // A contact lasts while the robot stays within the tolerance of it.
-        let near = self.robot_solids_inflated(Self::CONTACT_TOLERANCE_M);
-        let lasting: Vec<Obstruction> = self
-            .floor_solids()
-            .into_iter()
-            .filter(|(shape, what)| {
-                self.in_contact.contains(what)
-                    && !touched.contains(what)
-                    && near.iter().any(|r| push_out(r, shape).is_some())
-            })
-            .map(|(_, what)| what)
-            .collect();
+        let lasting: Vec<Obstruction> = if self.in_contact.is_empty() {
+            Vec::new()
+        } else {
+            let near = self.robot_solids_inflated(Self::CONTACT_TOLERANCE_M);
+            self.floor_solids()
+                .into_iter()
+                .filter(|(shape, what)| {
+                    self.in_contact.contains(what)
+                        && !touched.contains(what)
+                        && near.iter().any(|r| push_out(r, shape).is_some())
+                })
+                .map(|(_, what)| what)
+                .collect()
+        };
         for &with in &touched {
             if !self.in_contact.contains(&with) {
                 self.collisions.push(Collision {
@@ -780,7 +775,6 @@ impl World {
     /// The robot's solids grown by `margin_m` on every side.
     fn robot_solids_inflated(&self, margin_m: f64) -> Vec<OrientedRect> {
         self.robot_solids()
-            .into_iter()
             .map(|(r, _)| OrientedRect {
                 half_x_m: r.half_x_m + margin_m,
                 half_y_m: r.half_y_m + margin_m,
@@ -788,6 +782,23 @@ impl World {
             })
             .collect()
     }
+}
+
+/// The field's walls, dividers and beacon poles as contact shapes, in `Obstruction` order.
+fn fixed_solids(field: &Field) -> Vec<(Shape, Obstruction)> {
+    let walls = field.obstacles().into_iter().enumerate().map(|(i, wall)| {
+        (
+            Shape::Rect(OrientedRect::from_rect(wall.rect)),
+            Obstruction::Wall(i),
+        )
+    });
+    let beacons = field.beacons().iter().map(|b| {
+        (
+            Shape::Circle(b.circle.center, b.circle.radius_m),
+            Obstruction::Beacon(b.index),
+        )
+    });
+    walls.chain(beacons).collect()
 }
 
 /// True when the circle (`center`, `radius_m`) overlaps the rectangle's interior.
