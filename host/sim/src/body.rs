@@ -13,12 +13,18 @@
 //! driving costs odometry accuracy, as on the real robot. The acceleration counts the
 //! centripetal term of a turning body, so a fast curve can slip too.
 //!
+//! Contact ([`Body::push`]): the world moves a body that ran into something back out, and
+//! takes away its velocity into the obstacle. The wheels keep turning as their motors drive
+//! them, so the encoders count on while the body stands against a wall: the next step's
+//! no-slip twist again asks for more than the contact allows, and the difference is slip.
+//!
 //! Simplifications (stated, not hidden): the motors do not feel the body's load (a slipping
-//! wheel spins at its free speed); the wheels have no inertia of their own; the friction
-//! budget is isotropic although mecanum rollers grip less across than along.
+//! wheel spins at its free speed, a wheel against a wall too); the wheels have no inertia of
+//! their own; the friction budget is isotropic although mecanum rollers grip less across than
+//! along.
 
 use ratf_core::config::{RobotConfig, TractionConfig};
-use ratf_core::field::geometry::Pose2;
+use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::kinematics::{BodyTwist, Mecanum};
 use ratf_core::odometry::arc_displacement;
 
@@ -148,6 +154,26 @@ impl Body {
                 .hypot(wanted.vy_m_s - self.twist.vy_m_s),
         }
     }
+
+    /// Contact: move the body by `by` (m, world frame) out of an obstacle and take away the
+    /// part of its velocity that points into it (against `by`); the velocity along the
+    /// obstacle's face and the yaw rate are kept. The wheels' angles do not change.
+    pub fn push(&mut self, by: Vec2) {
+        let length = by.norm();
+        if length == 0.0 || !length.is_finite() {
+            return;
+        }
+        self.pose.x += by.x;
+        self.pose.y += by.y;
+        // The normal, in the robot frame.
+        let normal = (by * (1.0 / length)).rotated(-self.pose.yaw_rad);
+        let velocity = Vec2::new(self.twist.vx_m_s, self.twist.vy_m_s);
+        let into = velocity.dot(normal);
+        if into < 0.0 {
+            let kept = velocity - normal * into;
+            self.twist = BodyTwist::new(kept.x, kept.y, self.twist.omega_rad_s);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -264,6 +290,23 @@ mod tests {
             (short.y / strafe.y - 0.93).abs() < 1e-9,
             "{short:?} {strafe:?}"
         );
+    }
+
+    #[test]
+    fn a_push_stops_the_motion_into_the_obstacle_and_keeps_the_rest() {
+        // Heading +y (yaw 90°), moving forward 0.3 m/s and left 0.1 m/s (world −x).
+        let mut body = Body::at_rest(Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2));
+        body.twist = BodyTwist::new(0.3, 0.1, 0.2);
+        // A wall ahead (world +y) pushes back by 4 mm along world −y.
+        body.push(Vec2::new(0.0, -0.004));
+        assert!((body.pose.y - 1.996).abs() < 1e-12 && body.pose.x == 1.0);
+        assert!(body.twist.vx_m_s.abs() < 1e-12, "{:?}", body.twist);
+        assert!((body.twist.vy_m_s - 0.1).abs() < 1e-12);
+        assert_eq!(body.twist.omega_rad_s, 0.2);
+        // Moving away from the obstacle already: the velocity stays.
+        body.twist = BodyTwist::new(-0.3, 0.0, 0.0);
+        body.push(Vec2::new(0.0, -0.001));
+        assert_eq!(body.twist.vx_m_s, -0.3);
     }
 
     #[test]

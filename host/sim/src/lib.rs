@@ -6,6 +6,7 @@
 #![forbid(unsafe_code)]
 
 pub mod body;
+pub mod contact;
 pub mod devices;
 #[cfg(test)]
 mod fault_tests;

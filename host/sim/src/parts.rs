@@ -10,6 +10,11 @@
 //! released, the part drops where it is and stands in a slot if it lands between the slot's
 //! dividers (see `SLOT_CAPTURE_*`).
 //!
+//! Each part standing in a slot has its own pose there: the referee's placement (drawn per
+//! seed, [`crate::truth::PartSeat`]), or where the robot released it. The world pushes a
+//! free part the robot runs into ([`Shop::push`]); a part pushed out of its slot's capture
+//! zone stands on the floor and is no longer that slot's part.
+//!
 //! Machines (competition.md §2): a part dropped on a machine's input is turned after the
 //! processing delay and appears on the same row's output once that is free. Machine A turns
 //! red into green (and, when allowed, green into blue: round 2 lets greens use either
@@ -20,10 +25,12 @@ use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::geometry::{Pose2, Vec2, wrap_angle};
 use ratf_core::field::stations::{
-    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot,
+    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot, SlotKind,
 };
 use ratf_core::field::waypoints::WaypointId;
 use std::f64::consts::PI;
+
+use crate::truth::PartSeat;
 
 /// Where a part is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,6 +52,9 @@ pub struct Part {
     pub place: PartPlace,
 }
 
+/// Half of the default 30 cm body, m: the front face [`PICK_STANDOFF_M`] was set from.
+const DEFAULT_FRONT_M: f64 = 0.150;
+
 /// Where the switch and the magnet reach. Assumptions (the original's gripper is not
 /// documented beyond "micro-switch with roller lever" and "Grove electromagnet").
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -58,6 +68,10 @@ pub struct Gripper {
     pub lateral_tolerance_m: f64,
     /// Largest angle between the robot's heading and the plate's inward normal, rad (15°).
     pub angle_tolerance_rad: f64,
+    /// Distance from the robot centre to the magnet's face, m: [`PICK_STANDOFF_M`] on the
+    /// default 30 cm body, so the magnet stands 15 mm proud of the front face and a held
+    /// plate is where it is at a slot's pick pose.
+    pub magnet_m: f64,
 }
 
 impl Gripper {
@@ -68,6 +82,7 @@ impl Gripper {
             reach_m: 0.020,
             lateral_tolerance_m: 0.025,
             angle_tolerance_rad: 15f64.to_radians(),
+            magnet_m: PICK_STANDOFF_M + (front_m - DEFAULT_FRONT_M),
         }
     }
 }
@@ -121,6 +136,11 @@ pub struct Shop {
     /// Every machine row: (input slot, machine type, output slot).
     machine_rows: Vec<(WaypointId, MachineKind, WaypointId)>,
     parts: Vec<Part>,
+    /// Each part's pose in the world while it stands in a slot.
+    seated: Vec<Pose2>,
+    /// A released part stands where it was let go (false: centred in its slot, the ideal
+    /// world's way).
+    where_released: bool,
     processing: Vec<Processing>,
     machine_delay_us: u64,
     green_to_blue_at_a: bool,
@@ -152,7 +172,7 @@ impl Shop {
         green_to_blue_at_a: bool,
         gripper: Gripper,
     ) -> Self {
-        let parts = incoming
+        let parts: Vec<Part> = incoming
             .iter()
             .enumerate()
             .filter_map(|(i, color)| {
@@ -173,10 +193,23 @@ impl Shop {
                     .map(move |m| (m.input.waypoint, kind, m.output.waypoint))
             })
             .collect();
+        let slots: Vec<Slot> = field.slots().copied().collect();
+        let seated = parts
+            .iter()
+            .map(|part| match part.place {
+                PartPlace::Slot(id) => slots
+                    .iter()
+                    .find(|s| s.waypoint == id)
+                    .map_or(Pose2::default(), slot_frame),
+                _ => Pose2::default(),
+            })
+            .collect();
         Self {
-            slots: field.slots().copied().collect(),
+            slots,
             machine_rows,
             parts,
+            seated,
+            where_released: false,
             processing: Vec::new(),
             machine_delay_us,
             green_to_blue_at_a,
@@ -218,12 +251,37 @@ impl Shop {
         self.slots.iter().find(|s| s.waypoint == id)
     }
 
+    /// Moves each incoming part to where the referee placed it in its slot (`seats` in
+    /// incoming slot order; an empty slot's seat is unused). The world then pushes a part
+    /// drawn into a divider or the wall clear of it.
+    pub fn seat_incoming(&mut self, seats: &[PartSeat; 4]) {
+        let incoming: Vec<Slot> = self
+            .slots
+            .iter()
+            .filter(|s| s.kind == SlotKind::Incoming)
+            .copied()
+            .collect();
+        for (slot, seat) in incoming.iter().zip(seats) {
+            if let Some(part) = self.part_in(slot.waypoint) {
+                let yaw = seat.yaw_deg.to_radians();
+                // Out from the wall by the gap, plus what a turned part's back corner needs.
+                let corner = PART_DEPTH_M / 2.0 * yaw.cos() + PART_WIDTH_M / 2.0 * yaw.sin().abs();
+                let out = seat.gap_m + corner - PART_DEPTH_M / 2.0;
+                self.seated[part] = slot_frame(slot).compose(Pose2::new(out, seat.across_m, yaw));
+            }
+        }
+    }
+
+    /// Whether a part released into a slot stands where it was let go (worlds with contact)
+    /// or centred against the slot's wall (the ideal world, as before contact).
+    pub fn set_standing_where_released(&mut self, where_released: bool) {
+        self.where_released = where_released;
+    }
+
     /// A part's footprint in the world, given the robot's pose (for a carried part).
     pub fn footprint(&self, part: usize, robot: Pose2) -> OrientedRect {
         let pose = match self.parts[part].place {
-            PartPlace::Slot(id) => self.slot(id).map_or(robot, |slot| {
-                Pose2::new(slot.box_center.x, slot.box_center.y, slot.face_normal_rad)
-            }),
+            PartPlace::Slot(_) => self.seated[part],
             PartPlace::Carried(local) => robot.compose(local),
             PartPlace::Floor(pose) => pose,
         };
@@ -273,7 +331,7 @@ impl Shop {
                         -self.gripper.lateral_tolerance_m,
                         self.gripper.lateral_tolerance_m,
                     );
-                    let held = Pose2::new(PICK_STANDOFF_M + PART_DEPTH_M / 2.0, lateral, PI);
+                    let held = Pose2::new(self.gripper.magnet_m + PART_DEPTH_M / 2.0, lateral, PI);
                     self.parts[part].place = PartPlace::Carried(held);
                     self.processing.retain(|p| p.part != part);
                     events.push(PartEvent::Picked { part, from });
@@ -306,6 +364,30 @@ impl Shop {
         }
     }
 
+    /// Contact: the world moves standing part `part` by `by` (m, world frame) to keep it out
+    /// of the robot, a wall or another part. It stays its slot's part while it stands within
+    /// the slot's capture zone ([`Self::slot_at`]); pushed beyond, it stands on the floor
+    /// (and a machine working on it lets it go). A push never puts a part into a slot: only a
+    /// release does. A carried part is not pushed (the robot carries it).
+    pub fn push(&mut self, part: usize, by: Vec2) {
+        let Some(place) = self.parts.get(part).map(|p| p.place) else {
+            return;
+        };
+        let moved = |pose: Pose2| Pose2::new(pose.x + by.x, pose.y + by.y, pose.yaw_rad);
+        match place {
+            PartPlace::Slot(id) => {
+                let pose = moved(self.seated[part]);
+                if self.slot_at(pose).is_some_and(|s| s.waypoint == id) {
+                    self.seated[part] = pose;
+                } else {
+                    self.put_on_floor(part, pose);
+                }
+            }
+            PartPlace::Floor(pose) => self.parts[part].place = PartPlace::Floor(moved(pose)),
+            PartPlace::Carried(_) => {}
+        }
+    }
+
     /// The slot a part standing at `world` would be in (between its dividers, plate facing
     /// the slot's way), if any.
     pub fn slot_at(&self, world: Pose2) -> Option<&Slot> {
@@ -328,6 +410,11 @@ impl Shop {
         match capture.copied() {
             Some(slot) if self.part_in(slot.waypoint).is_none() => {
                 self.parts[part].place = PartPlace::Slot(slot.waypoint);
+                self.seated[part] = if self.where_released {
+                    world
+                } else {
+                    slot_frame(&slot)
+                };
                 let row = self
                     .machine_rows
                     .iter()
@@ -386,6 +473,11 @@ impl Shop {
                     color: job.new_color,
                     place: PartPlace::Slot(job.output),
                 };
+                // The machine's output: centred against the wall (the mover is not
+                // specified; competition.md §1.3).
+                if let Some(output) = self.slot(job.output) {
+                    self.seated[job.part] = slot_frame(output);
+                }
                 events.push(PartEvent::Processed {
                     part: job.part,
                     color: job.new_color,
@@ -396,6 +488,12 @@ impl Shop {
             }
         }
     }
+}
+
+/// A slot's frame: at the centre of a part standing centred against the slot's back wall,
+/// x along the plate's outward normal.
+fn slot_frame(slot: &Slot) -> Pose2 {
+    Pose2::new(slot.box_center.x, slot.box_center.y, slot.face_normal_rad)
 }
 
 #[cfg(test)]
@@ -519,6 +617,64 @@ mod tests {
         );
         assert!(matches!(shop.parts()[2].place, PartPlace::Floor(_)));
         assert_eq!(shop.switch_contact(middle), Some(2)); // still right in front of the robot
+    }
+
+    #[test]
+    fn a_part_seated_off_centre_stands_there_and_is_picked_at_the_pick_pose() {
+        let field = Field::competition();
+        let slot = *field.incoming_slot(0).unwrap();
+        // A realistic placement picked at the pick pose; the harshest drawn (20 mm across,
+        // 15 mm from the wall, 8° turned) stands 21 mm proud, into where the body would be at
+        // the pick pose: the switch closes 15 mm short of it.
+        for (across_m, gap_m, yaw_deg, standoff_m) in
+            [(0.01, 0.005, 3.0, 0.165), (-0.02, 0.015, -8.0, 0.18)]
+        {
+            let robot = slot.pose_at_standoff(standoff_m);
+            let mut shop = shop(&field, 0);
+            let seat = PartSeat {
+                across_m,
+                gap_m,
+                yaw_deg,
+            };
+            shop.seat_incoming(&[seat; 4]);
+            let at = slot_frame(&slot).relative(shop.footprint(0, slot.pick_pose).pose);
+            assert!((at.y - across_m).abs() < 1e-12, "{at:?}");
+            assert!((at.yaw_rad.to_degrees() - yaw_deg).abs() < 1e-9);
+            // Its back corner is the gap from the wall (x = −30 mm in the slot's frame).
+            let yaw = yaw_deg.to_radians();
+            let back = at.x - (0.03 * yaw.cos() + 0.045 * yaw.sin().abs());
+            assert!((back + 0.03 - gap_m).abs() < 1e-12, "{at:?}");
+            assert_eq!(shop.part_in(slot.waypoint), Some(0));
+            assert_eq!(shop.switch_contact(robot), Some(0));
+            assert_eq!(
+                shop.step(0, robot, true),
+                [PartEvent::Picked {
+                    part: 0,
+                    from: Some(slot.waypoint)
+                }]
+            );
+        }
+    }
+
+    #[test]
+    fn a_pushed_part_stays_its_slots_until_it_leaves_the_slot() {
+        let field = Field::competition();
+        let slot = *field.incoming_slot(1).unwrap();
+        let mut shop = shop(&field, 0);
+        let out = Vec2::from_angle(slot.face_normal_rad);
+        // 1 cm out of the slot: still there, 1 cm further out.
+        shop.push(1, out * 0.01);
+        assert_eq!(shop.part_in(slot.waypoint), Some(1));
+        let at = shop.footprint(1, slot.pick_pose).pose;
+        assert!((at.position() - slot.box_center - out * 0.01).norm() < 1e-12);
+        // 5 cm more: on the floor, the slot empty for the server.
+        shop.push(1, out * 0.05);
+        assert_eq!(shop.part_in(slot.waypoint), None);
+        assert!(matches!(shop.parts()[1].place, PartPlace::Floor(_)));
+        assert_eq!(shop.letters([50, 51, 52, 53].map(WaypointId)), "RXXB");
+        // Pushed back in, it stays on the floor: only a release puts a part into a slot.
+        shop.push(1, out * -0.06);
+        assert!(matches!(shop.parts()[1].place, PartPlace::Floor(_)));
     }
 
     #[test]

@@ -21,10 +21,23 @@
 //! | gyro z bias | U(±2 °/s) \[MPU\] | U(±5 °/s) |
 //! | motor gain, per motor | U(±1 %) \[D\] | U(±5 %) |
 //! | battery voltage | U(11.4, 12.4) V [A: a 3S pack between rounds] | U(10.8, 12.6) V |
+//! | part across its slot, per incoming part | U(±10 mm) \[A, COMP\] | U(±20 mm) (on a divider) |
+//! | part's gap to the slot's back wall | U(0, 5) mm \[A, COMP\] | U(0, 15) mm |
+//! | part yaw in its slot | U(±3°) \[A\] | U(±8°) |
+//! | body length and width | config + U(±5 mm) \[A\] | config + U(±10 mm) |
+//! | body centre from the wheels' centre | U(±5 mm) per axis \[A\] | U(±15 mm) |
+//!
+//! The parts' placement is the budget's §9 (a 130 mm slot, \[COMP\], holds a 90 mm part:
+//! 20 mm of play each side; the referee's hand sets the rest, an assumption). The body's
+//! outline has no source: the budget has nothing on it, and the config's 30 × 30 cm centred
+//! square is the rules' size limit, not a measurement. A team measures its outline to a few
+//! millimetres, bumpers, cables and the lever stick out, and the wheels' centre (the robot
+//! frame) need not be the frame's centre (the original stopped 127–177 mm from the plates,
+//! `field::PICK_STANDOFF_M`): hence the \[A\] spreads above. A part drawn into a divider
+//! or the back wall (a large yaw near a divider) is pushed clear when the world is built.
 //!
 //! Not drawn yet (issue 11 lists them): USB and lidar timing jitter, lidar rotation speed
-//! variation, motor load torque and battery sag within a round, each part's position and
-//! yaw in its slot, the body's true footprint.
+//! variation, motor load torque and battery sag within a round.
 
 use serde::Serialize;
 
@@ -65,6 +78,26 @@ pub struct WorldTruth {
     pub motor_gain_scale: [f64; 4],
     /// The battery's voltage, V.
     pub battery_voltage_v: f64,
+    /// Where each incoming part stands in its slot (incoming slot order, 0..3).
+    pub part_seats: [PartSeat; 4],
+    /// The body's true length along the robot's x, m.
+    pub footprint_length_m: f64,
+    /// The body's true width along the robot's y, m.
+    pub footprint_width_m: f64,
+    /// The body's centre in the robot frame (whose origin is the wheels' centre), m.
+    pub body_offset_m: [f64; 2],
+}
+
+/// Where a part stands in its slot, relative to a part exactly centred against the slot's
+/// back wall (the slot's own frame: x out of the slot along the plate's normal, y across).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct PartSeat {
+    /// Offset across the slot (along the slot frame's y), m.
+    pub across_m: f64,
+    /// Gap between the part's back and the slot's back wall, m (≥ 0).
+    pub gap_m: f64,
+    /// Yaw of the part's plate normal from the slot's, degrees.
+    pub yaw_deg: f64,
 }
 
 impl WorldTruth {
@@ -87,6 +120,10 @@ impl WorldTruth {
             gyro_bias_rad_s,
             motor_gain_scale: [1.0; 4],
             battery_voltage_v: config.motor.battery_voltage_v,
+            part_seats: [PartSeat::default(); 4],
+            footprint_length_m: config.robot.footprint_length_m,
+            footprint_width_m: config.robot.footprint_width_m,
+            body_offset_m: [0.0; 2],
         }
     }
 
@@ -129,6 +166,19 @@ impl WorldTruth {
         let motor_gain_scale =
             std::array::from_fn(|_| 1.0 + motors.uniform_in(-k.motor_gain, k.motor_gain));
         let battery_voltage_v = stream("battery").uniform_in(k.battery_v.0, k.battery_v.1);
+        let mut seats = stream("part-seats");
+        let part_seats = std::array::from_fn(|_| PartSeat {
+            across_m: seats.uniform_in(-k.part_across_m, k.part_across_m),
+            gap_m: seats.uniform_in(0.0, k.part_gap_m),
+            yaw_deg: seats.uniform_in(-k.part_yaw_deg, k.part_yaw_deg),
+        });
+        let mut outline = stream("body-outline");
+        let footprint_length_m =
+            config.robot.footprint_length_m + outline.uniform_in(-k.body_size_m, k.body_size_m);
+        let footprint_width_m =
+            config.robot.footprint_width_m + outline.uniform_in(-k.body_size_m, k.body_size_m);
+        let body_offset_m =
+            std::array::from_fn(|_| outline.uniform_in(-k.body_offset_m, k.body_offset_m));
         Self {
             profile,
             lidar_range_scale,
@@ -145,11 +195,15 @@ impl WorldTruth {
             gyro_bias_rad_s,
             motor_gain_scale,
             battery_voltage_v,
+            part_seats,
+            footprint_length_m,
+            footprint_width_m,
+            body_offset_m,
         }
     }
 
-    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise
-    /// and battery. (Per-wheel radius differences, the range scale and offset, the lateral
+    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise,
+    /// battery and body outline (its offset, [`Self::body_offset_m`], is the world's). (Per-wheel radius differences, the range scale and offset, the lateral
     /// factor, the gyro's scale and the motors' gains are applied by the world's parts.)
     pub fn true_config(&self, beliefs: &Config) -> Config {
         let mut truth = beliefs.clone();
@@ -162,6 +216,8 @@ impl WorldTruth {
         robot.left_right_wheel_distance_m *= self.turn_scale;
         truth.lidar.range_noise_std_m = self.lidar_noise_base_m;
         truth.motor.battery_voltage_v = self.battery_voltage_v;
+        truth.robot.footprint_length_m = self.footprint_length_m;
+        truth.robot.footprint_width_m = self.footprint_width_m;
         truth
     }
 
@@ -201,6 +257,19 @@ impl std::fmt::Display for WorldTruth {
             .map(|s| format!("{:+.2}", (s - 1.0) * 100.0))
             .collect::<Vec<_>>()
             .join("/");
+        let seats = self
+            .part_seats
+            .iter()
+            .map(|p| {
+                format!(
+                    "({:+.0},{:.0},{:+.1}°)",
+                    p.across_m * 1e3,
+                    p.gap_m * 1e3,
+                    p.yaw_deg
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(" ");
         write!(
             f,
             "world {}: lidar range ×{:.4} {:+.1} mm, noise {:.1} mm + {:.2} %·r, yaw {:+.2}°, \
@@ -219,6 +288,15 @@ impl std::fmt::Display for WorldTruth {
             self.gyro_scale,
             self.gyro_bias_rad_s.to_degrees(),
             self.battery_voltage_v,
+        )?;
+        write!(
+            f,
+            "; parts in slots (across, gap mm, yaw) {seats}; body {:.0} × {:.0} mm, \
+             centre ({:+.1}, {:+.1}) mm",
+            self.footprint_length_m * 1e3,
+            self.footprint_width_m * 1e3,
+            self.body_offset_m[0] * 1e3,
+            self.body_offset_m[1] * 1e3,
         )
     }
 }
@@ -251,6 +329,11 @@ struct Spread {
     gyro_bias_deg_s: f64,
     motor_gain: f64,
     battery_v: (f64, f64),
+    part_across_m: f64,
+    part_gap_m: f64,
+    part_yaw_deg: f64,
+    body_size_m: f64,
+    body_offset_m: f64,
 }
 
 impl Spread {
@@ -271,6 +354,11 @@ impl Spread {
         gyro_bias_deg_s: 2.0,
         motor_gain: 0.01,
         battery_v: (11.4, 12.4),
+        part_across_m: 0.010,
+        part_gap_m: 0.005,
+        part_yaw_deg: 3.0,
+        body_size_m: 0.005,
+        body_offset_m: 0.005,
     };
 
     const HARSH: Self = Self {
@@ -290,6 +378,11 @@ impl Spread {
         gyro_bias_deg_s: 5.0,
         motor_gain: 0.05,
         battery_v: (10.8, 12.6),
+        part_across_m: 0.020,
+        part_gap_m: 0.015,
+        part_yaw_deg: 8.0,
+        body_size_m: 0.010,
+        body_offset_m: 0.015,
     };
 }
 
@@ -311,6 +404,9 @@ mod tests {
         assert_eq!(truth, WorldTruth::ideal(&beliefs, 0.005));
         assert_eq!(truth.true_config(&beliefs), beliefs);
         assert_eq!(truth.true_field(&beliefs), Field::competition());
+        // Parts exactly centred against their walls, the body the config's centred outline.
+        assert_eq!(truth.part_seats, [PartSeat::default(); 4]);
+        assert_eq!(truth.body_offset_m, [0.0; 2]);
     }
 
     #[test]
@@ -321,6 +417,10 @@ mod tests {
             let b = WorldTruth::draw(&config(world, 2), 0.0);
             assert_ne!(a.lidar_range_scale, b.lidar_range_scale);
             assert_ne!(a.beacon_errors_m, b.beacon_errors_m);
+            assert_ne!(a.part_seats, b.part_seats);
+            assert_ne!(a.body_offset_m, b.body_offset_m);
+            // The four parts are placed independently.
+            assert_ne!(a.part_seats[0], a.part_seats[1]);
             let k = if world == WorldProfile::Realistic {
                 Spread::REALISTIC
             } else {
@@ -338,6 +438,17 @@ mod tests {
                         .iter()
                         .all(|g| (g - 1.0).abs() <= k.motor_gain)
                 );
+                for seat in t.part_seats {
+                    assert!(seat.across_m.abs() <= k.part_across_m);
+                    assert!((0.0..=k.part_gap_m).contains(&seat.gap_m));
+                    assert!(seat.yaw_deg.abs() <= k.part_yaw_deg);
+                }
+                let believed = Config::default().robot;
+                assert!(
+                    (t.footprint_length_m - believed.footprint_length_m).abs() <= k.body_size_m
+                );
+                assert!((t.footprint_width_m - believed.footprint_width_m).abs() <= k.body_size_m);
+                assert!(t.body_offset_m.iter().all(|o| o.abs() <= k.body_offset_m));
             }
         }
     }
@@ -352,6 +463,8 @@ mod tests {
         let diameter_ratio = world.robot.wheel_diameter_m / beliefs.robot.wheel_diameter_m;
         assert!((diameter_ratio - truth.mean_wheel_radius_scale()).abs() < 1e-12);
         assert_eq!(world.motor.battery_voltage_v, truth.battery_voltage_v);
+        assert_eq!(world.robot.footprint_length_m, truth.footprint_length_m);
+        assert_eq!(world.robot.footprint_width_m, truth.footprint_width_m);
         // What the robot decides with is untouched.
         assert_eq!(world.navigation, beliefs.navigation);
         assert_eq!(world.localisation, beliefs.localisation);

@@ -16,8 +16,21 @@
 //!    telemetry batch starts down the Mega → host line after the firmware's measured
 //!    latency (`mega.telemetry_latency_us`);
 //! 3. each motor gets PWM/255 of the battery voltage; the body moves with the traction limit;
+//!    contact keeps it (and the part it carries) out of walls, dividers, beacon poles and
+//!    parts, and pushes the free parts it runs into (see [`World::footprint`], `contact`);
 //! 4. the lidar takes the samples due in the step; the IMU sees the body's yaw rate;
-//! 5. the magnet and the machines act on the parts; overlaps are checked for collisions.
+//! 5. the magnet and the machines act on the parts.
+//!
+//! Contact is a rigid-body projection, no dynamics: the robot's true outline (the truth's
+//! footprint, off the wheels' centre by its offset) is moved out of what it entered along the
+//! minimum translation and loses its velocity into it, while the wheels turn on and the
+//! encoders count (slip). A part the robot (or the part it carries) runs into is pushed along,
+//! without turning, until a wall, a pole or another part stops it; then the robot stops too.
+//! Each new contact of the robot or its carried part is a [`Collision`], except the carried
+//! part touching the slot it is being placed in or picked from (the magnet presses it there
+//! by design). The `ideal` world keeps today's simulator for regression: no contact, the
+//! body passes through and each overlap deeper than 2 mm counts as a collision; its parts
+//! stand exactly centred, also where the robot released them.
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -25,13 +38,14 @@ use std::rc::Rc;
 use ratf_protocol::mcu::{Actuation, Mcu, TickInputs};
 
 use crate::body::{Body, Ground, TractionLimits};
+use crate::contact::{Shape, push_out};
 use crate::imu::{SimErrors, SimMotion, SimMpu9255};
 use crate::lidar::{LidarScene, SimLidar, Solid};
 use crate::motor::Motor;
 use crate::parts::{Gripper, PartEvent, Shop};
 use crate::serial::SerialLine;
 use crate::truth::WorldTruth;
-use ratf_core::config::{Config, MotorConfig};
+use ratf_core::config::{Config, MotorConfig, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::PartColor;
@@ -92,7 +106,7 @@ impl embedded_hal::i2c::I2c for SimImuBus {
     }
 }
 
-/// A collision: the robot (or the part it carries) started to overlap something.
+/// A collision: the robot (or the part it carries) ran into something.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Collision {
     /// Simulated time, µs.
@@ -121,8 +135,10 @@ pub struct WorldStats {
     pub slip_steps: u64,
     /// Largest slip speed seen, m/s.
     pub max_slip_speed_m_s: f64,
-    /// Collisions (each new overlap counts once).
+    /// Collisions (each new contact counts once, see [`Collision`]).
     pub collisions: u32,
+    /// Steps in which contact pushed the robot back out of something.
+    pub contact_steps: u64,
     /// Mega control ticks run.
     pub mega_ticks: u64,
     /// Bytes the host sent to the Mega that found the line's buffer full and were dropped
@@ -174,7 +190,14 @@ pub struct World {
     imu: Rc<RefCell<SimMpu9255>>,
     shop: Shop,
     obstacles: Vec<OrientedRect>,
-    overlapping: Vec<Obstruction>,
+    /// The robot frame's pose of the body's outline (its centre off the wheels' centre).
+    body_offset: Pose2,
+    /// What the robot (or its carried part) is in contact with (overlaps, in the ideal world).
+    in_contact: Vec<Obstruction>,
+    /// Contact physics on: every world but `ideal`, which stays today's for regression.
+    contact: bool,
+    /// The walls, dividers and beacon poles as contact shapes (they never move).
+    fixed_solids: Vec<(Shape, Obstruction)>,
     collisions: Vec<Collision>,
     part_events: Vec<(u64, PartEvent)>,
     tick_poses: Vec<Pose2>,
@@ -208,8 +231,18 @@ impl World {
                 * (imu_rate_hz / 2.0f64).sqrt(),
             accel_noise_std_m_s2: 0.02,
         });
-        let gripper = Gripper::new(config.robot.footprint_length_m / 2.0);
-        Self {
+        let body_offset = Pose2::new(truth.body_offset_m[0], truth.body_offset_m[1], 0.0);
+        let gripper = Gripper::new(world.robot.footprint_length_m / 2.0 + body_offset.x);
+        let mut shop = Shop::new(
+            &field,
+            scenario.incoming,
+            scenario.machine_delay_us,
+            scenario.green_to_blue_at_a,
+            gripper,
+        );
+        shop.seat_incoming(&truth.part_seats);
+        shop.set_standing_where_released(truth.profile != WorldProfile::Ideal);
+        let mut built = Self {
             step_ns: u64::from(config.sim.time_step_us) * 1000,
             body: Body::at_rest(scenario.start_pose),
             motors: std::array::from_fn(|k| {
@@ -234,19 +267,16 @@ impl World {
             ),
             scene: LidarScene::new(&field, &scenario.clutter, world.robot.lidar_height_m),
             imu: Rc::new(RefCell::new(imu)),
-            shop: Shop::new(
-                &field,
-                scenario.incoming,
-                scenario.machine_delay_us,
-                scenario.green_to_blue_at_a,
-                gripper,
-            ),
+            shop,
             obstacles: field
                 .obstacles()
                 .iter()
                 .map(|o| OrientedRect::from_rect(o.rect))
                 .collect(),
-            overlapping: Vec::new(),
+            body_offset,
+            in_contact: Vec::new(),
+            contact: truth.profile != WorldProfile::Ideal,
+            fixed_solids: fixed_solids(&field),
             collisions: Vec::new(),
             part_events: Vec::new(),
             tick_poses: Vec::new(),
@@ -257,7 +287,21 @@ impl World {
             config: world,
             truth,
             mega_down_until_ns: None,
+        };
+        // A part drawn into a divider or the wall stands clear of it.
+        for part in 0..built.shop.parts().len() {
+            built.settle_part(part);
         }
+        if built.contact {
+            // The team sets the robot down clear of everything: a body whose true outline
+            // overlaps a pole at the scenario's start pose stands just clear of it (a few
+            // millimetres off the pose the robot believes), no collision.
+            built.resolve_contacts(0);
+            built.collisions.clear();
+            built.in_contact.clear();
+            built.stats = WorldStats::default();
+        }
+        built
     }
 
     /// The world's truth (what the robot's configuration gets wrong).
@@ -459,6 +503,9 @@ impl World {
             self.grip,
             dt_s,
         );
+        if self.contact {
+            self.resolve_contacts(now_us);
+        }
         if slip.slipped || self.grip < 1.0 {
             self.stats.slip_steps += 1;
         }
@@ -487,7 +534,9 @@ impl World {
         {
             self.part_events.push((now_us, event));
         }
-        self.check_collisions(now_us);
+        if !self.contact {
+            self.check_collisions(now_us);
+        }
     }
 
     fn mega_tick(&mut self, mega_now_us: u32) {
@@ -516,18 +565,27 @@ impl World {
         self.stats.mega_ticks += 1;
     }
 
-    /// The robot's footprint at its true pose.
+    /// The robot's true outline at its true pose (the truth's length, width and offset).
     pub fn footprint(&self) -> OrientedRect {
         let r = &self.config.robot;
-        OrientedRect::new(self.body.pose, r.footprint_length_m, r.footprint_width_m)
+        OrientedRect::new(
+            self.body.pose.compose(self.body_offset),
+            r.footprint_length_m,
+            r.footprint_width_m,
+        )
     }
 
-    /// Overlap (m) below which bodies are in contact rather than colliding. The simulator
-    /// has no contact physics: a part held against a wall by the magnet, or pushed by the
-    /// docking robot, sinks a fraction of a millimetre into it. 2 mm: an assumption, well
-    /// below anything a referee would see.
+    /// Gap (m) within which a contact lasts: a robot pressed against a wall, whose controller
+    /// backs off and pushes again, stays in the same contact (one collision) until it moves
+    /// this far away. 2 mm: an assumption, well below anything a referee would see.
     const CONTACT_TOLERANCE_M: f64 = 0.002;
 
+    /// Rounds of projection per step: a part pushed against a wall pushes back on the
+    /// robot, which may then touch something else. Four: more than a corner needs.
+    const CONTACT_ROUNDS: usize = 4;
+
+    /// The ideal world's collisions (today's world, kept for regression): no contact, the
+    /// body passes through; each new overlap deeper than the tolerance counts once.
     fn check_collisions(&mut self, now_us: u64) {
         let robot = self.footprint();
         let carried = self.shop.carried();
@@ -574,7 +632,7 @@ impl World {
             }
         }
         for &with in &now_overlapping {
-            if !self.overlapping.contains(&with) {
+            if !self.in_contact.contains(&with) {
                 self.collisions.push(Collision {
                     time_us: now_us,
                     with,
@@ -583,8 +641,164 @@ impl World {
                 self.stats.collisions += 1;
             }
         }
-        self.overlapping = now_overlapping;
+        self.in_contact = now_overlapping;
     }
+
+    /// The robot's solids: its body, and the part it carries. `true` for the carried part.
+    fn robot_solids(&self) -> impl Iterator<Item = (OrientedRect, bool)> + use<> {
+        let carried = self
+            .shop
+            .carried()
+            .map(|part| (self.shop.footprint(part, self.body.pose), true));
+        std::iter::once((self.footprint(), false)).chain(carried)
+    }
+
+    /// What stands on the floor: walls and dividers, beacon poles, and the parts not carried.
+    fn floor_solids(&self) -> Vec<(Shape, Obstruction)> {
+        let carried = self.shop.carried();
+        let parts = (0..self.shop.parts().len())
+            .filter(|&part| Some(part) != carried)
+            .map(|part| {
+                (
+                    Shape::Rect(self.shop.footprint(part, self.body.pose)),
+                    Obstruction::Part(part),
+                )
+            });
+        self.fixed_solids.iter().copied().chain(parts).collect()
+    }
+
+    /// Push standing part `part` out of the walls, the poles and the other parts.
+    fn settle_part(&mut self, part: usize) {
+        if self.shop.carried() == Some(part) {
+            return;
+        }
+        for _ in 0..Self::CONTACT_ROUNDS {
+            let rect = self.shop.footprint(part, self.body.pose);
+            let push = self
+                .floor_solids()
+                .iter()
+                .filter(|(_, what)| *what != Obstruction::Part(part))
+                .find_map(|(shape, _)| push_out(&rect, shape));
+            match push {
+                Some(by) => self.shop.push(part, by),
+                None => break,
+            }
+        }
+    }
+
+    /// Contact after the body's step: the robot pushes the free parts it entered (which stop
+    /// at walls, poles and other parts), then is pushed out of everything it still
+    /// overlaps. New contacts are collisions (see the module documentation).
+    fn resolve_contacts(&mut self, now_us: u64) {
+        let mut touched: Vec<Obstruction> = Vec::new();
+        let mut pushed_back = false;
+        let carried = self.shop.carried();
+        for _ in 0..Self::CONTACT_ROUNDS {
+            for part in 0..self.shop.parts().len() {
+                if Some(part) == carried {
+                    continue;
+                }
+                for (solid, is_carried) in self.robot_solids() {
+                    let rect = self.shop.footprint(part, self.body.pose);
+                    if let Some(by) = push_out(&rect, &Shape::Rect(solid)) {
+                        self.shop.push(part, by);
+                        self.note_contact(&mut touched, Obstruction::Part(part), is_carried);
+                        self.settle_part(part);
+                    }
+                }
+            }
+            let mut moved = false;
+            for (shape, what) in self.floor_solids() {
+                for (solid, is_carried) in self.robot_solids() {
+                    if let Some(by) = push_out(&solid, &shape) {
+                        self.body.push(by);
+                        moved = true;
+                        self.note_contact(&mut touched, what, is_carried);
+                    }
+                }
+            }
+            pushed_back |= moved;
+            if !moved {
+                break;
+            }
+        }
+        if pushed_back {
+            self.stats.contact_steps += 1;
+        }
+        // A contact lasts while the robot stays within the tolerance of it.
+        let lasting: Vec<Obstruction> = if self.in_contact.is_empty() {
+            Vec::new()
+        } else {
+            let near = self.robot_solids_inflated(Self::CONTACT_TOLERANCE_M);
+            self.floor_solids()
+                .into_iter()
+                .filter(|(shape, what)| {
+                    self.in_contact.contains(what)
+                        && !touched.contains(what)
+                        && near.iter().any(|r| push_out(r, shape).is_some())
+                })
+                .map(|(_, what)| what)
+                .collect()
+        };
+        for &with in &touched {
+            if !self.in_contact.contains(&with) {
+                self.collisions.push(Collision {
+                    time_us: now_us,
+                    with,
+                    pose: self.body.pose,
+                });
+                self.stats.collisions += 1;
+            }
+        }
+        touched.extend(lasting);
+        self.in_contact = touched;
+    }
+
+    /// Record a contact of the robot (or, `by_carried`, its carried part) with `what`. The
+    /// carried part touching the walls of the slot it stands in is being picked or placed:
+    /// the magnet presses it there by design, no collision.
+    fn note_contact(&self, touched: &mut Vec<Obstruction>, what: Obstruction, by_carried: bool) {
+        if by_carried
+            && matches!(what, Obstruction::Wall(_))
+            && self.shop.carried().is_some_and(|part| {
+                let at = self.shop.footprint(part, self.body.pose).pose;
+                self.shop.slot_at(at).is_some()
+            })
+        {
+            return;
+        }
+        if !touched.contains(&what) {
+            touched.push(what);
+        }
+    }
+
+    /// The robot's solids grown by `margin_m` on every side.
+    fn robot_solids_inflated(&self, margin_m: f64) -> Vec<OrientedRect> {
+        self.robot_solids()
+            .map(|(r, _)| OrientedRect {
+                half_x_m: r.half_x_m + margin_m,
+                half_y_m: r.half_y_m + margin_m,
+                ..r
+            })
+            .collect()
+    }
+}
+
+/// The field's walls, dividers and beacon poles as contact shapes, in `Obstruction` order.
+fn fixed_solids(field: &Field) -> Vec<(Shape, Obstruction)> {
+    let walls = field.obstacles().into_iter().enumerate().map(|(i, wall)| {
+        (
+            Shape::Rect(OrientedRect::from_rect(wall.rect)),
+            Obstruction::Wall(i),
+        )
+    });
+    let beacons = field.beacons().iter().map(|b| {
+        (
+            Shape::Circle(b.circle.center, b.circle.radius_m),
+            Obstruction::Beacon(b.index),
+        )
+    });
+    walls.chain(beacons).collect()
 }
 
 /// True when the circle (`center`, `radius_m`) overlaps the rectangle's interior.
@@ -600,6 +814,7 @@ fn circle_overlaps(rect: &OrientedRect, center: Vec2, radius_m: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::parts::PartPlace;
     use ratf_core::drivers::mega_link::{MegaEvent, MegaLink};
 
     fn world(pose: Pose2) -> World {
@@ -670,8 +885,205 @@ mod tests {
         assert_eq!(world.stats().collisions, 0);
     }
 
+    /// Drive `world` with a constant body twist for `steps` steps, the magnet off. (The
+    /// contact tests switch contact on in the ideal world, to keep its exact geometry.)
+    fn drive(world: &mut World, twist: ratf_core::kinematics::BodyTwist, steps: usize) {
+        drive_until(world, twist, false, steps, |_| false);
+    }
+
+    /// Drive with the magnet as `solenoid` until `done` or `steps` steps.
+    fn drive_until(
+        world: &mut World,
+        twist: ratf_core::kinematics::BodyTwist,
+        solenoid: bool,
+        steps: usize,
+        done: impl Fn(&World) -> bool,
+    ) {
+        let mut link = MegaLink::default();
+        let mecanum = Mecanum::new(&Config::default().robot);
+        let wheels = mecanum.inverse(twist).map(|w| w as f32);
+        for step in 0..steps {
+            if step % 20 == 0 {
+                let bytes = link.encode_references(wheels, solenoid).unwrap();
+                world.send_to_mega(&bytes);
+            }
+            world.step();
+            if done(world) {
+                return;
+            }
+        }
+    }
+
     #[test]
-    fn driving_into_a_wall_is_a_collision_counted_once() {
+    fn a_body_driven_into_a_wall_stops_at_it_its_wheels_slip_and_it_counts_once() {
+        // Facing the machine A block from the left, 5 cm away, driving into it at 0.2 m/s
+        // for 1.5 s: 30 cm of wheel travel.
+        let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.05, -0.075, 0.0));
+        world.contact = true;
+        drive(
+            &mut world,
+            ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0),
+            1500,
+        );
+        let pose = world.body().pose;
+        // The front face stands at the dividers' tips (x = −0.4275), not beyond.
+        // (Within 0.1 mm: the body turns a fraction of a milliradian as its wheels slip.)
+        assert!(
+            (pose.x + 0.4275 + 0.15).abs() < 1e-4,
+            "stopped at x = {}",
+            pose.x
+        );
+        assert!((pose.y + 0.075).abs() < 1e-4 && pose.yaw_rad.abs() < 1e-3);
+        // The wheels turned on: the encoders saw far more than the 5 cm the body moved.
+        let rolled_m = world.body().wheel_angles_rad[0].abs() * 0.03;
+        assert!(rolled_m > 0.2, "wheels rolled {rolled_m} m");
+        let stats = world.stats();
+        assert!(stats.slip_steps > 500, "{stats:?}");
+        assert!(stats.contact_steps > 500, "{stats:?}");
+        // One collision per obstruction touched, with when and where.
+        let collisions = world.collisions();
+        assert!(!collisions.is_empty());
+        assert!(
+            collisions
+                .iter()
+                .all(|c| matches!(c.with, Obstruction::Wall(_)))
+        );
+        let mut distinct: Vec<Obstruction> = collisions.iter().map(|c| c.with).collect();
+        distinct.sort();
+        distinct.dedup();
+        assert_eq!(distinct.len(), collisions.len(), "{collisions:?}");
+        assert_eq!(stats.collisions as usize, collisions.len());
+        let first = collisions[0];
+        // 5 cm at up to 0.2 m/s after the first telemetry tick: between 0.25 and 0.6 s.
+        assert!((250_000..600_000).contains(&first.time_us), "{first:?}");
+        assert!((first.pose.x + 0.5775).abs() < 0.002, "{first:?}");
+    }
+
+    #[test]
+    fn a_wall_deflects_a_body_driven_at_it_at_an_angle() {
+        // Driving +x and −y at once into the same block: the front is stopped, the sideways
+        // motion goes on along the dividers' tips.
+        let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.02, 0.0, 0.0));
+        world.contact = true;
+        drive(
+            &mut world,
+            ratf_core::kinematics::BodyTwist::new(0.2, -0.1, 0.0),
+            1000,
+        );
+        let pose = world.body().pose;
+        assert!((pose.x + 0.5775).abs() < 1e-4, "{pose:?}");
+        assert!(pose.y < -0.05, "slid along the block: {pose:?}");
+    }
+
+    #[test]
+    fn a_free_part_is_pushed_along_in_front_of_the_robot() {
+        let start = Pose2::new(-0.8, 0.0, 0.0);
+        let config = Config::default();
+        let mut world = World::new(
+            &config,
+            &Scenario {
+                start_pose: start,
+                incoming: [Some(PartColor::Blue), None, None, None],
+                ..Scenario::new(&config)
+            },
+        );
+        // The part on the floor 5 cm ahead of the front face, its plate facing the robot,
+        // on the line of machine A's upper input slot (y = 0, between two dividers).
+        let part_at = Pose2::new(-0.8 + 0.15 + 0.05 + 0.03, 0.0, std::f64::consts::PI);
+        world.shop_mut().put_on_floor(0, part_at);
+        world.contact = true;
+        drive(
+            &mut world,
+            ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0),
+            1600,
+        );
+        let part = world.shop().footprint(0, world.body().pose);
+        let robot = world.footprint();
+        // The robot stopped with its front on the dividers' tips (x = −0.4275); the part,
+        // pushed 17 cm without turning, stands against its front, inside the slot's mouth.
+        assert!((robot.pose.x + 0.4275 + 0.15).abs() < 1e-3, "{robot:?}");
+        assert!((part.pose.x - (-0.4275 + 0.03)).abs() < 1e-3, "{part:?}");
+        assert!(part.pose.y.abs() < 1e-3 && part.pose.yaw_rad == std::f64::consts::PI);
+        assert!(!robot.overlaps(&part));
+        // A push never puts a part into a slot: only a release does.
+        assert!(matches!(world.shop().parts()[0].place, PartPlace::Floor(_)));
+        let with: Vec<Obstruction> = world.collisions().iter().map(|c| c.with).collect();
+        assert_eq!(with.first(), Some(&Obstruction::Part(0)), "{with:?}");
+        assert!(with[1..].iter().all(|w| matches!(w, Obstruction::Wall(_))));
+        assert_eq!(
+            with.iter().filter(|&&w| w == Obstruction::Part(0)).count(),
+            1
+        );
+    }
+
+    #[test]
+    fn a_robot_set_down_into_a_pole_starts_clear_of_it_without_a_collision() {
+        let mut config = Config::default();
+        config.sim.world = ratf_core::config::WorldProfile::Realistic;
+        // Its left side 3 cm into beacon 3's pole (believed at (−0.888, −0.538)).
+        let start = Pose2::new(-0.888 + 0.045 + 0.15 - 0.03, -0.538, 0.0);
+        let world = World::new(
+            &config,
+            &Scenario {
+                start_pose: start,
+                ..Scenario::new(&config)
+            },
+        );
+        let pole = world.field().beacons()[3].circle;
+        let body = world.footprint();
+        assert!(push_out(&body, &Shape::Circle(pole.center, pole.radius_m)).is_none());
+        assert!(world.body().pose.position().distance(start.position()) < 0.05);
+        assert_eq!((world.collisions().len(), world.stats().collisions), (0, 0));
+    }
+
+    #[test]
+    fn a_robot_creeping_onto_an_off_centre_part_picks_it_without_a_collision() {
+        // Realistic worlds: each part off centre in its slot, the body's outline off the
+        // config's. The robot creeps at 0.05 m/s from 2 cm short of the nominal pick pose
+        // with the magnet on, as the mission's docking does.
+        for seed in 1..=5 {
+            let mut config = Config::default();
+            config.sim.world = ratf_core::config::WorldProfile::Realistic;
+            config.sim.seed = seed;
+            let slot = *Field::competition().incoming_slot(2).unwrap();
+            let mut world = World::new(
+                &config,
+                &Scenario {
+                    start_pose: slot.pose_at_standoff(0.185),
+                    incoming: [Some(PartColor::Red); 4],
+                    ..Scenario::new(&config)
+                },
+            );
+            let seat = world.truth().part_seats[2];
+            assert!(seat.across_m != 0.0 && seat.yaw_deg != 0.0);
+            drive_until(
+                &mut world,
+                ratf_core::kinematics::BodyTwist::new(0.05, 0.0, 0.0),
+                true,
+                1500,
+                |w| w.shop().carried().is_some(),
+            );
+            assert!(
+                world.part_events().iter().any(|(_, e)| matches!(
+                    e,
+                    PartEvent::Picked {
+                        part: 2,
+                        from: Some(_)
+                    }
+                )),
+                "seed {seed}: {seat:?} {:?}",
+                world.part_events()
+            );
+            assert!(
+                world.collisions().is_empty(),
+                "seed {seed}: {:?}",
+                world.collisions()
+            );
+        }
+    }
+
+    #[test]
+    fn the_ideal_world_has_no_contact_and_counts_a_wall_driven_through_once() {
         // Facing the machine A block from the left, 5 cm away, driving into it.
         let mut world = world(Pose2::new(-0.4275 - 0.15 - 0.05, -0.075, 0.0));
         let mut link = MegaLink::default();

@@ -974,12 +974,14 @@ mod tests {
 
     #[test]
     fn calibrating_first_turns_a_lost_realistic_round_into_a_full_score() {
-        // Seed 18's world (lidar zero angle off by 0.8°, range ×0.992) loses round 1
-        // uncalibrated; the calibration drive fixes the robot's beliefs, not the world.
+        // Seed 17's world (lidar zero angle off by 2.5°, range ×1.010) loses round 1
+        // uncalibrated: the robot docks into incoming slot 1's divider, is held there by
+        // contact and gives a part up. The calibration drive fixes the robot's beliefs, not
+        // the world. (Seed 18 served until the world drew its parts' placement and outline.)
         let mut world = Config::default();
         world.sim.world = WorldProfile::Realistic;
-        world.sim.seed = 18;
-        let options = RoundOptions::new(1, 18, Policy::Ours);
+        world.sim.seed = 17;
+        let options = RoundOptions::new(1, 17, Policy::Ours);
         let uncalibrated = run_in_world(&world, &world, &options, &mut [], |_| {}).unwrap();
         assert!(uncalibrated.points < 4, "{uncalibrated:?}");
         let mut calibrated = world.clone();
