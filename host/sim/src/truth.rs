@@ -353,13 +353,19 @@ impl std::fmt::Display for Usb<'_> {
         }
         write!(
             f,
-            "flush {:.3} ms @{:.2} + U(0, {:.1}) + |N(0, {:.1})| ms, {:.1} % {:.0} ms late",
+            "{:.3} ms flush @{:.2} ms",
             t.flush_period_us * 1e-3,
-            t.flush_phase_us * 1e-3,
-            t.extra_max_us * 1e-3,
+            t.flush_phase_us * 1e-3
+        )?;
+        if t.extra_max_us > 0.0 {
+            write!(f, " + U(0, {:.1} ms)", t.extra_max_us * 1e-3)?;
+        }
+        write!(
+            f,
+            " + |N(0, {:.1} ms)|, {:.1} % +{:.0} ms",
             t.host_sigma_us * 1e-3,
             t.tail_probability * 100.0,
-            t.tail_us * 1e-3,
+            t.tail_us * 1e-3
         )
     }
 }
