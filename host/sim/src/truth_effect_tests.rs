@@ -133,3 +133,38 @@ fn lidar_bytes_reach_the_host_later_only_in_a_real_world() {
     // CP2102's 1 ms frame plus U(0, 1) ms, and the host's |N(0, 0.5 ms)|.
     assert!((ideal + 800..ideal + 3_000).contains(&real), "{real} µs");
 }
+
+#[test]
+fn commands_reach_the_mega_later_only_in_a_real_world() {
+    // A PWM command sent at `send_ms`: applied at the Mega's tick at 100 ms?
+    let applied_at_the_tick = |profile, seed, send_ms: u64| {
+        let mut w = world(profile, seed);
+        let bytes = MegaLink::default().encode_pwm([50; 4], false);
+        while w.now_us() < send_ms * 1_000 {
+            w.step();
+        }
+        w.send_to_mega(&bytes);
+        while w.now_us() < 100_000 {
+            w.step();
+        }
+        w.actuation().pwm == [50; 4]
+    };
+    // The latest send that the ideal Mega still applies at that tick (the frames cross the
+    // UART in 0.78 ms each) ...
+    let send_ms = (80..100)
+        .rev()
+        .find(|&ms| applied_at_the_tick(WorldProfile::Ideal, 1, ms))
+        .expect("a command sent 20 ms early is applied");
+    assert!(send_ms >= 95, "{send_ms} ms");
+    let late = |profile| {
+        (1..=10)
+            .filter(|&seed| !applied_at_the_tick(profile, seed, send_ms))
+            .count()
+    };
+    assert_eq!(late(WorldProfile::Ideal), 0);
+    // ... misses it on some seeds behind a 1 ms USB frame and the host's scheduling (the
+    // slack left is under a millisecond, the step's granularity).
+    let realistic = late(WorldProfile::Realistic);
+    assert!((1..=10).contains(&realistic), "{realistic} of 10 late");
+    assert_eq!(late(WorldProfile::Realistic), realistic);
+}
