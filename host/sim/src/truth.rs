@@ -23,7 +23,7 @@
 //! | battery voltage | U(11.4, 12.4) V [A: a 3S pack between rounds] | U(10.8, 12.6) V |
 //! | Mega → host USB: bridge flush | every 4.096 ms, phase U(0, 4.096) ms \[16U2\] | same, + U(0, 1) ms per flush |
 //! | host → Mega USB: frame | every 1 ms, phase U(0, 1) ms \[A: full-speed USB frames\] | same |
-//! | lidar → host USB (CP2102) | every 1 ms + U(0, 1) ms: 1–2 ms \[X4UM, A\] | every 1 ms + U(0, 4) ms |
+//! | lidar → host USB (CP2102) | flush every 1 ms, then U(0, 1) ms: 0–2 ms after landing \[X4UM: 1–2 ms; A\] | U(0, 4) ms \[budget: 5 ms\] |
 //! | host scheduling, each link | \|N(0, 0.5 ms)\|, 0.1 % of flushes 5 ms late \[A\] | \|N(0, 1 ms)\|, 0.5 % 20 ms late |
 //! | X4 rotation rate, mean | U(±1 %) of `scan_rate_hz` \[EAI8, SDK18, ROS4\] | U(±2 %) \[A\] |
 //! | X4 rotation rate, wander | ±0.5 %, a sine of period U(20, 120) s \[A\] | ±2 % \[A, budget's drift\] |
@@ -33,7 +33,7 @@
 //!
 //! Timing: each USB link hands bytes over at its bridge's next flush after they cross the
 //! UART, plus the flush's drawn delay ([`crate::serial::UsbTiming`]); the Mega's batches
-//! (4.7 ms on the wire) straddle one or two flushes, so the host sees each batch 0–4.1 ms
+//! (several ms on the wire) straddle one or two flushes, so the host sees each batch 0–4.1 ms
 //! later than the firmware's fixed latency, varying batch to batch. The host's own
 //! scheduling is drawn per flush (budget §8: σ 0.5 ms, a 5 ms tail; harsh a 20 ms tail; how
 //! often the tail comes is an \[A\]). The X4's rate: see [`crate::lidar::Rotation`].
