@@ -19,6 +19,14 @@
 //! angle quantisation (1/64°) of the packet format; the X4's angle correction (the sample at
 //! head angle θ is the point at bearing θ + AngCorrect(d)).
 //!
+//! Rotation speed ([`SimLidar::with_rotation`]): the X4's motor is not speed-controlled
+//! from the host, so its true rate is a per-unit factor off the configured one with a slow
+//! sinusoidal wander within the round. The factor is taken at each revolution's start and
+//! holds for that revolution; the samples keep their configured angular grid (the real X4
+//! samples at a fixed 5 kHz so its step follows the speed; the host reads angles from the
+//! packets, so what matters here is the timing) and the packets report the true rate, as the
+//! X4's own frequency field does (0.1 Hz resolution).
+//!
 //! Asked for its device information (`A5 90`) or health (`A5 91`), it answers as a healthy
 //! X4 would ([`reply`]): model 6, firmware 1.7, hardware 1.
 
@@ -176,6 +184,14 @@ pub struct SimLidar {
     sample_period_ns: u64,
     /// Index of the next sample since the sensor started.
     next_sample: u64,
+    /// When the next sample is taken, ns.
+    next_sample_ns: u64,
+    /// Time between two samples in the current revolution, ns.
+    revolution_sample_ns: u64,
+    /// The head's rate in the current revolution, Hz.
+    revolution_rate_hz: f64,
+    /// The true rotation speed, if it differs from the configured one.
+    rotation: Option<Rotation>,
     packet: Vec<f64>,
     packet_first_index: u64,
     rng: SimRng,
@@ -201,6 +217,10 @@ impl SimLidar {
             samples_per_revolution,
             sample_period_ns,
             next_sample: 0,
+            next_sample_ns: 0,
+            revolution_sample_ns: sample_period_ns,
+            revolution_rate_hz: config.scan_rate_hz,
+            rotation: None,
             packet: Vec::with_capacity(SAMPLES_PER_PACKET),
             packet_first_index: 0,
             rng,
@@ -220,7 +240,19 @@ impl SimLidar {
         self
     }
 
-    /// Time between two samples, ns.
+    /// This lidar with its head turning at `rotation`'s true speed rather than exactly
+    /// the configured `scan_rate_hz`.
+    pub fn with_rotation(mut self, rotation: Rotation) -> Self {
+        self.rotation = Some(rotation);
+        self
+    }
+
+    /// The head's rate in the current revolution, Hz.
+    pub fn rate_hz(&self) -> f64 {
+        self.revolution_rate_hz
+    }
+
+    /// Time between two samples at the configured rate, ns.
     pub fn sample_period_ns(&self) -> u64 {
         self.sample_period_ns
     }
@@ -246,7 +278,7 @@ impl SimLidar {
         line: &mut SerialLine,
     ) {
         loop {
-            let t_ns = self.next_sample * self.sample_period_ns;
+            let t_ns = self.next_sample_ns;
             if t_ns > to_ns {
                 break;
             }
@@ -264,6 +296,11 @@ impl SimLidar {
         let index_in_rev = self.next_sample % self.samples_per_revolution;
         let head_deg = index_in_rev as f64 * self.step_deg();
         if index_in_rev == 0 {
+            if let Some(rotation) = self.rotation {
+                let factor = rotation.factor_at(t_ns as f64 * 1e-9);
+                self.revolution_rate_hz = self.config.scan_rate_hz * factor;
+                self.revolution_sample_ns = (self.sample_period_ns as f64 / factor).round() as u64;
+            }
             self.flush(line, t_ns);
             let mut bytes = Vec::new();
             // The zero packet only marks the revolution; its single sample carries no range.
@@ -281,6 +318,7 @@ impl SimLidar {
         };
         self.packet.push(distance_mm);
         self.next_sample += 1;
+        self.next_sample_ns += self.revolution_sample_ns;
         let revolution_ends = self.next_sample.is_multiple_of(self.samples_per_revolution);
         if self.packet.len() == SAMPLES_PER_PACKET || revolution_ends {
             self.flush(line, t_ns);
@@ -310,7 +348,7 @@ impl SimLidar {
     fn spec<'a>(&self, start: bool, first_deg: f64, last_deg: f64, d: &'a [f64]) -> PacketSpec<'a> {
         PacketSpec {
             start_of_revolution: start,
-            scan_frequency_hz: self.config.scan_rate_hz.min(12.7),
+            scan_frequency_hz: self.revolution_rate_hz.min(12.7),
             first_angle_deg: first_deg,
             last_angle_deg: last_deg,
             distances_mm: d,
@@ -329,6 +367,28 @@ impl SimLidar {
             line.send(&bytes, t_ns);
         }
         self.packet.clear();
+    }
+}
+
+/// The X4's true rotation speed over a round: `mean_factor × (1 + wander × sin(2π t /
+/// wander_period_s + wander_phase_rad))` times the configured rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rotation {
+    /// The unit's mean rate over the configured one.
+    pub mean_factor: f64,
+    /// The wander's amplitude, a fraction of the mean.
+    pub wander: f64,
+    /// The wander's period, s.
+    pub wander_period_s: f64,
+    /// The wander's phase at time 0, rad.
+    pub wander_phase_rad: f64,
+}
+
+impl Rotation {
+    /// The true rate over the configured one at `t_s` seconds.
+    pub fn factor_at(&self, t_s: f64) -> f64 {
+        let angle = std::f64::consts::TAU * t_s / self.wander_period_s.max(1e-3);
+        (self.mean_factor * (1.0 + self.wander * (angle + self.wander_phase_rad).sin())).max(0.1)
     }
 }
 
@@ -434,6 +494,81 @@ mod tests {
         let scan = &scans[1];
         assert_eq!(scan.samples, 720);
         assert!((scan.scan_frequency_hz - 7.0).abs() < 1e-9);
+    }
+
+    /// Samples taken and scans handed out over `seconds` by a lidar turning at `rotation`.
+    fn spin(
+        rotation: Option<Rotation>,
+        seconds: f64,
+    ) -> (u64, Vec<ratf_core::drivers::x4::scan::Scan>) {
+        let robot_config = RobotConfig::default();
+        let config = LidarConfig::default();
+        let scene = LidarScene::new(&Field::competition(), &[], robot_config.lidar_height_m);
+        let mut lidar = SimLidar::new(&config, &robot_config, SimRng::new(1));
+        if let Some(rotation) = rotation {
+            lidar = lidar.with_rotation(rotation);
+        }
+        let mut line = SerialLine::new(128_000);
+        let mut driver = X4Driver::new(ScanConfig::default());
+        let mut scans = Vec::new();
+        let robot = Pose2::new(0.0, 0.0, 0.0);
+        let end_ns = (seconds * 1e9) as u64;
+        let mut t = 0;
+        while t < end_ns {
+            let next = t + 1_000_000;
+            lidar.advance(t, robot, next, robot, &scene, &mut line);
+            driver.feed(&line.receive(next), next / 1000, |s| scans.push(s));
+            t = next;
+        }
+        (lidar.next_sample, scans)
+    }
+
+    #[test]
+    fn a_head_turning_off_its_rate_takes_its_revolutions_at_its_own_pace_and_says_so() {
+        // 2 % fast, no wander: 10 s hold 71.4 revolutions instead of 70.
+        let fast = Rotation {
+            mean_factor: 1.02,
+            wander: 0.0,
+            wander_period_s: 60.0,
+            wander_phase_rad: 0.0,
+        };
+        let (samples, scans) = spin(Some(fast), 10.0);
+        let revolutions = samples as f64 / 720.0;
+        assert!((revolutions - 71.4).abs() < 0.05, "{revolutions}");
+        // The packets carry the true rate, at the format's 0.1 Hz resolution.
+        assert!(
+            scans
+                .iter()
+                .skip(1)
+                .all(|s| (s.scan_frequency_hz - 7.1).abs() < 0.051)
+        );
+        // The configured rate, exactly as without a rotation.
+        let (plain, _) = spin(None, 10.0);
+        let unit = Rotation {
+            mean_factor: 1.0,
+            ..fast
+        };
+        assert_eq!(spin(Some(unit), 10.0).0, plain);
+        assert_eq!(plain, 70 * 720);
+    }
+
+    #[test]
+    fn the_rate_wanders_slowly_within_its_bounds() {
+        let rotation = Rotation {
+            mean_factor: 0.99,
+            wander: 0.005,
+            wander_period_s: 40.0,
+            wander_phase_rad: 1.0,
+        };
+        let factors: Vec<f64> = (0..1200)
+            .map(|i| rotation.factor_at(f64::from(i) * 0.1))
+            .collect();
+        let (lo, hi) = factors
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(lo, hi), &f| (lo.min(f), hi.max(f)));
+        assert!((lo - 0.99 * 0.995).abs() < 1e-5 && (hi - 0.99 * 1.005).abs() < 1e-5);
+        // Slow: 0.1 s apart (less than a revolution), the rate moves by less than 0.01 %.
+        assert!(factors.windows(2).all(|w| (w[1] - w[0]).abs() < 1e-4));
     }
 
     #[test]

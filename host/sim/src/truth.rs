@@ -26,6 +26,15 @@
 //! | part yaw in its slot | U(±3°) \[A\] | U(±8°) |
 //! | body length and width | config + U(±5 mm) \[A\] | config + U(±10 mm) |
 //! | body centre from the wheels' centre | U(±5 mm) per axis \[A\] | U(±15 mm) |
+//! | Mega → host USB: bridge flush | every 4.096 ms, phase U(0, 4.096) ms \[16U2\] | same, + U(0, 1) ms per flush |
+//! | host → Mega USB: frame | every 1 ms, phase U(0, 1) ms \[A: full-speed USB frames\] | same |
+//! | lidar → host USB (CP2102) | flush every 1 ms, then U(0, 1) ms: 0–2 ms after landing \[X4UM: 1–2 ms; A\] | U(0, 4) ms \[budget: 5 ms\] |
+//! | host scheduling, each link | \|N(0, 0.5 ms)\|, 0.1 % of flushes 5 ms late \[A\] | \|N(0, 1 ms)\|, 0.5 % 20 ms late |
+//! | X4 rotation rate, mean | U(±1 %) of `scan_rate_hz` \[EAI8, SDK18, ROS4\] | U(±2 %) \[A\] |
+//! | X4 rotation rate, wander | ±0.5 %, a sine of period U(20, 120) s \[A\] | ±2 % \[A, budget's drift\] |
+//! | battery internal resistance | U(20, 40) mΩ \[IR1, IR2: cells + wiring ≈ 30 mΩ\] | U(40, 80) mΩ |
+//! | battery open-circuit fall | 0.4 V per A·h drawn \[budget: 20–60 mV for 1–3 % of 5 A·h\] | 1.0 V/A·h \[A\] |
+//! | load torque, per wheel | U(0, 7.5) mN·m \[A: rolling resistance\] | U(0, 20) mN·m \[A\] |
 //!
 //! The parts' placement is the budget's §9 (a 130 mm slot, \[COMP\], holds a 90 mm part:
 //! 20 mm of play each side; the referee's hand sets the rest, an assumption). The body's
@@ -36,14 +45,33 @@
 //! `field::PICK_STANDOFF_M`): hence the \[A\] spreads above. A part drawn into a divider
 //! or the back wall (a large yaw near a divider) is pushed clear when the world is built.
 //!
-//! Not drawn yet (issue 11 lists them): USB and lidar timing jitter, lidar rotation speed
-//! variation, motor load torque and battery sag within a round.
+//! Timing: each USB link hands bytes over at its bridge's next flush after they cross the
+//! UART, plus the flush's drawn delay ([`crate::serial::UsbTiming`]); the Mega's batches
+//! (several ms on the wire) straddle one or two flushes, so the host sees each batch 0–4.1 ms
+//! later than the firmware's fixed latency, varying batch to batch. The host's own
+//! scheduling is drawn per flush (budget §8: σ 0.5 ms, a 5 ms tail; harsh a 20 ms tail; how
+//! often the tail comes is an \[A\]). The X4's rate: see [`crate::lidar::Rotation`].
+//!
+//! Electrical: the battery's terminal voltage is its drawn start voltage, less 0.4 V per A·h
+//! drawn and its internal resistance times the current (the motors' at their PWM duty plus
+//! [`crate::motor::ELECTRONICS_CURRENT_A`]); PWM 255 delivers that voltage, so the actuator's
+//! true limit follows the sag. The Mega itself is told the *believed* `motor.battery_voltage_v`
+//! (`MegaConfig::to_mcu_config`: its PWM scale and the PI's voltage limit), it measures no
+//! battery, so its limit does not follow the truth, as on the real robot. The load torque:
+//! rolling resistance of a 2 kg robot on mecanum rollers (coefficient up to 0.05, 0.25 N a
+//! wheel at 30 mm: 7.5 mN·m), on top of the floor the 0.22 V dead zone was measured on; it
+//! acts as up to 0.05 V more dead zone (harsh 0.13 V), within the motors' measured 0.18–0.30 V
+//! spread (budget §6). The load's and the battery's draws come from the DFRobot motor's
+//! datasheet (1.77 N·m, 7 A stall, 0.35 A no load: [`crate::motor`]).
 
 use serde::Serialize;
 
 use ratf_core::config::{Config, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::rng::SimRng;
+
+use crate::lidar::Rotation;
+use crate::serial::UsbTiming;
 
 /// The truth of one simulated world.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -86,6 +114,27 @@ pub struct WorldTruth {
     pub footprint_width_m: f64,
     /// The body's centre in the robot frame (whose origin is the wheels' centre), m.
     pub body_offset_m: [f64; 2],
+    /// How the Mega → host link's USB bridge (ATmega16U2) and the host deliver telemetry.
+    pub mega_usb: UsbTiming,
+    /// How the host → Mega link's USB and the bridge deliver the host's commands.
+    pub host_usb: UsbTiming,
+    /// How the lidar → host link's USB bridge (CP2102) and the host deliver packets.
+    pub lidar_usb: UsbTiming,
+    /// The X4's mean rotation rate over the configured `scan_rate_hz`.
+    pub lidar_rate_scale: f64,
+    /// The amplitude of the rate's slow wander, a fraction of the mean.
+    pub lidar_rate_wander: f64,
+    /// The wander's period, s.
+    pub lidar_rate_wander_period_s: f64,
+    /// The wander's phase at time 0, rad.
+    pub lidar_rate_wander_phase_rad: f64,
+    /// The battery's internal resistance with its wiring, Ω.
+    pub battery_resistance_ohm: f64,
+    /// How far the battery's open-circuit voltage falls per ampere-hour drawn, V/(A·h).
+    pub battery_drop_v_per_ah: f64,
+    /// The load torque (rolling resistance, friction) each wheel's motor feels, N·m
+    /// (motor index order).
+    pub wheel_load_torque_nm: [f64; 4],
 }
 
 /// Where a part stands in its slot, relative to a part exactly centred against the slot's
@@ -124,6 +173,16 @@ impl WorldTruth {
             footprint_length_m: config.robot.footprint_length_m,
             footprint_width_m: config.robot.footprint_width_m,
             body_offset_m: [0.0; 2],
+            mega_usb: UsbTiming::IMMEDIATE,
+            host_usb: UsbTiming::IMMEDIATE,
+            lidar_usb: UsbTiming::IMMEDIATE,
+            lidar_rate_scale: 1.0,
+            lidar_rate_wander: 0.0,
+            lidar_rate_wander_period_s: 60.0,
+            lidar_rate_wander_phase_rad: 0.0,
+            battery_resistance_ohm: 0.0,
+            battery_drop_v_per_ah: 0.0,
+            wheel_load_torque_nm: [0.0; 4],
         }
     }
 
@@ -179,6 +238,25 @@ impl WorldTruth {
             config.robot.footprint_width_m + outline.uniform_in(-k.body_size_m, k.body_size_m);
         let body_offset_m =
             std::array::from_fn(|_| outline.uniform_in(-k.body_offset_m, k.body_offset_m));
+        let usb = |name: &str, t: UsbSpread| {
+            let phase = stream(name).uniform_in(0.0, t.period_us);
+            UsbTiming {
+                flush_period_us: t.period_us,
+                flush_phase_us: phase,
+                extra_max_us: t.extra_max_us,
+                host_sigma_us: k.host_sigma_us,
+                tail_probability: k.host_tail_probability,
+                tail_us: k.host_tail_us,
+            }
+        };
+        let mut rotation = stream("lidar-rate");
+        let lidar_rate_scale = 1.0 + rotation.uniform_in(-k.lidar_rate, k.lidar_rate);
+        let lidar_rate_wander_period_s = rotation.uniform_in(20.0, 120.0);
+        let lidar_rate_wander_phase_rad = rotation.uniform_in(0.0, std::f64::consts::TAU);
+        let battery_resistance_ohm =
+            stream("battery-resistance").uniform_in(k.battery_ohm.0, k.battery_ohm.1);
+        let mut load = stream("wheel-load");
+        let wheel_load_torque_nm = std::array::from_fn(|_| load.uniform_in(0.0, k.load_nm));
         Self {
             profile,
             lidar_range_scale,
@@ -204,6 +282,31 @@ impl WorldTruth {
 
     /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise,
     /// battery and body outline (its offset, [`Self::body_offset_m`], is the world's). (Per-wheel radius differences, the range scale and offset, the lateral
+            mega_usb: usb("usb-mega", k.mega_usb),
+            host_usb: usb("usb-host", k.host_usb),
+            lidar_usb: usb("usb-lidar", k.lidar_usb),
+            lidar_rate_scale,
+            lidar_rate_wander: k.lidar_rate_wander,
+            lidar_rate_wander_period_s,
+            lidar_rate_wander_phase_rad,
+            battery_resistance_ohm,
+            battery_drop_v_per_ah: k.battery_drop_v_per_ah,
+            wheel_load_torque_nm,
+        }
+    }
+
+    /// The X4's true rotation, or `None` when it turns exactly at the configured rate.
+    pub fn lidar_rotation(&self) -> Option<Rotation> {
+        (self.lidar_rate_scale != 1.0 || self.lidar_rate_wander != 0.0).then_some(Rotation {
+            mean_factor: self.lidar_rate_scale,
+            wander: self.lidar_rate_wander,
+            wander_period_s: self.lidar_rate_wander_period_s,
+            wander_phase_rad: self.lidar_rate_wander_phase_rad,
+        })
+    }
+
+    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise
+    /// and battery. (Per-wheel radius differences, the range scale and offset, the lateral
     /// factor, the gyro's scale and the motors' gains are applied by the world's parts.)
     pub fn true_config(&self, beliefs: &Config) -> Config {
         let mut truth = beliefs.clone();
@@ -297,8 +400,61 @@ impl std::fmt::Display for WorldTruth {
             self.footprint_width_m * 1e3,
             self.body_offset_m[0] * 1e3,
             self.body_offset_m[1] * 1e3,
+        let loads = self
+            .wheel_load_torque_nm
+            .iter()
+            .map(|t| format!("{:.1}", t * 1e3))
+            .collect::<Vec<_>>()
+            .join("/");
+        write!(
+            f,
+            " ({:.0} mΩ, −{:.1} V/A·h), wheel load {loads} mN·m; X4 rate ×{:.4} ±{:.1} % over \
+             {:.0} s; USB mega→host {}, host→mega {}, lidar→host {}",
+            self.battery_resistance_ohm * 1e3,
+            self.battery_drop_v_per_ah,
+            self.lidar_rate_scale,
+            self.lidar_rate_wander * 100.0,
+            self.lidar_rate_wander_period_s,
+            Usb(&self.mega_usb),
+            Usb(&self.host_usb),
+            Usb(&self.lidar_usb),
         )
     }
+}
+
+/// A link's USB timing in a line of the truth's print.
+struct Usb<'a>(&'a UsbTiming);
+
+impl std::fmt::Display for Usb<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let t = self.0;
+        if t.is_immediate() {
+            return f.write_str("immediate");
+        }
+        write!(
+            f,
+            "{:.3} ms flush @{:.2} ms",
+            t.flush_period_us * 1e-3,
+            t.flush_phase_us * 1e-3
+        )?;
+        if t.extra_max_us > 0.0 {
+            write!(f, " + U(0, {:.1} ms)", t.extra_max_us * 1e-3)?;
+        }
+        write!(
+            f,
+            " + |N(0, {:.1} ms)|, {:.1} % +{:.0} ms",
+            t.host_sigma_us * 1e-3,
+            t.tail_probability * 100.0,
+            t.tail_us * 1e-3
+        )
+    }
+}
+
+/// One USB link's bridge in a profile: its flush period and its extra delay, µs.
+#[derive(Clone, Copy, Debug)]
+struct UsbSpread {
+    period_us: f64,
+    extra_max_us: f64,
 }
 
 /// How a beacon's true centre spreads around the believed one.
@@ -334,6 +490,17 @@ struct Spread {
     part_yaw_deg: f64,
     body_size_m: f64,
     body_offset_m: f64,
+    mega_usb: UsbSpread,
+    host_usb: UsbSpread,
+    lidar_usb: UsbSpread,
+    host_sigma_us: f64,
+    host_tail_probability: f64,
+    host_tail_us: f64,
+    lidar_rate: f64,
+    lidar_rate_wander: f64,
+    battery_ohm: (f64, f64),
+    battery_drop_v_per_ah: f64,
+    load_nm: f64,
 }
 
 impl Spread {
@@ -359,6 +526,26 @@ impl Spread {
         part_yaw_deg: 3.0,
         body_size_m: 0.005,
         body_offset_m: 0.005,
+        mega_usb: UsbSpread {
+            period_us: MEGA_USB_FLUSH_US,
+            extra_max_us: 0.0,
+        },
+        host_usb: UsbSpread {
+            period_us: USB_FRAME_US,
+            extra_max_us: 0.0,
+        },
+        lidar_usb: UsbSpread {
+            period_us: USB_FRAME_US,
+            extra_max_us: 1_000.0,
+        },
+        host_sigma_us: 500.0,
+        host_tail_probability: 0.001,
+        host_tail_us: 5_000.0,
+        lidar_rate: 0.01,
+        lidar_rate_wander: 0.005,
+        battery_ohm: (0.020, 0.040),
+        battery_drop_v_per_ah: 0.4,
+        load_nm: 0.0075,
     };
 
     const HARSH: Self = Self {
@@ -383,8 +570,40 @@ impl Spread {
         part_yaw_deg: 8.0,
         body_size_m: 0.010,
         body_offset_m: 0.015,
+        mega_usb: UsbSpread {
+            period_us: MEGA_USB_FLUSH_US,
+            extra_max_us: 1_000.0,
+        },
+        host_usb: UsbSpread {
+            period_us: USB_FRAME_US,
+            extra_max_us: 0.0,
+        },
+        lidar_usb: UsbSpread {
+            period_us: USB_FRAME_US,
+            extra_max_us: 4_000.0,
+        },
+        host_sigma_us: 1_000.0,
+        host_tail_probability: 0.005,
+        host_tail_us: 20_000.0,
+        lidar_rate: 0.02,
+        lidar_rate_wander: 0.02,
+        battery_ohm: (0.040, 0.080),
+        battery_drop_v_per_ah: 1.0,
+        load_nm: 0.02,
     };
 }
+
+/// The ATmega16U2's USB flush timer, µs: Timer0 overflowing every 256 × 256 cycles at
+/// 16 MHz (Arduino-usbserial, budget §8 \[16U2\]).
+const MEGA_USB_FLUSH_US: f64 = 4_096.0;
+
+/// A full-speed USB frame, µs: bulk transfers are scheduled once a frame (assumption for
+/// the host → Mega and CP2102 links, whose bridges' own timers are not documented).
+const USB_FRAME_US: f64 = 1_000.0;
+
+#[cfg(test)]
+#[path = "truth_effect_tests.rs"]
+mod effect_tests;
 
 #[cfg(test)]
 mod tests {
@@ -449,8 +668,45 @@ mod tests {
                 );
                 assert!((t.footprint_width_m - believed.footprint_width_m).abs() <= k.body_size_m);
                 assert!(t.body_offset_m.iter().all(|o| o.abs() <= k.body_offset_m));
+                assert!((t.lidar_rate_scale - 1.0).abs() <= k.lidar_rate);
+                assert!((20.0..=120.0).contains(&t.lidar_rate_wander_period_s));
+                assert!((k.battery_ohm.0..=k.battery_ohm.1).contains(&t.battery_resistance_ohm));
+                assert!(
+                    t.wheel_load_torque_nm
+                        .iter()
+                        .all(|&l| (0.0..=k.load_nm).contains(&l))
+                );
+                for (usb, spread) in [
+                    (t.mega_usb, k.mega_usb),
+                    (t.host_usb, k.host_usb),
+                    (t.lidar_usb, k.lidar_usb),
+                ] {
+                    assert_eq!(usb.flush_period_us, spread.period_us);
+                    assert!((0.0..spread.period_us).contains(&usb.flush_phase_us));
+                    assert_eq!(usb.tail_us, k.host_tail_us);
+                }
             }
+            // The timing and electrical draws are each seed's own.
+            assert_ne!(a.mega_usb.flush_phase_us, b.mega_usb.flush_phase_us);
+            assert_ne!(a.lidar_rate_scale, b.lidar_rate_scale);
+            assert_ne!(a.wheel_load_torque_nm, b.wheel_load_torque_nm);
+            assert_ne!(a.battery_resistance_ohm, b.battery_resistance_ohm);
+            assert!(a.lidar_rotation().is_some());
         }
+    }
+
+    #[test]
+    fn the_ideal_world_has_no_timing_or_electrical_errors() {
+        let truth = WorldTruth::draw(&config(WorldProfile::Ideal, 5), 0.0);
+        assert!(truth.mega_usb.is_immediate());
+        assert!(truth.host_usb.is_immediate());
+        assert!(truth.lidar_usb.is_immediate());
+        assert_eq!(truth.lidar_rotation(), None);
+        assert_eq!(truth.battery_resistance_ohm, 0.0);
+        assert_eq!(truth.battery_drop_v_per_ah, 0.0);
+        assert_eq!(truth.wheel_load_torque_nm, [0.0; 4]);
+        let printed = truth.to_string();
+        assert!(printed.contains("USB mega→host immediate"), "{printed}");
     }
 
     #[test]

@@ -41,7 +41,7 @@ use crate::body::{Body, Ground, TractionLimits};
 use crate::contact::{Shape, push_out};
 use crate::imu::{SimErrors, SimMotion, SimMpu9255};
 use crate::lidar::{LidarScene, SimLidar, Solid};
-use crate::motor::Motor;
+use crate::motor::{Battery, ELECTRONICS_CURRENT_A, Motor};
 use crate::parts::{Gripper, PartEvent, Shop};
 use crate::serial::SerialLine;
 use crate::truth::WorldTruth;
@@ -176,6 +176,7 @@ pub struct World {
     step_ns: u64,
     body: Body,
     motors: [Motor; 4],
+    battery: Battery,
     mecanum: Mecanum,
     limits: TractionLimits,
     mcu: Mcu,
@@ -221,7 +222,8 @@ impl World {
             config.motor.battery_voltage_v,
         ));
         let mut from_mega =
-            SerialLine::with_capacity(config.link.mega_baud, MEGA_TX_CAPACITY_BYTES);
+            SerialLine::with_capacity(config.link.mega_baud, MEGA_TX_CAPACITY_BYTES)
+                .with_usb(truth.mega_usb, rng.fork("usb-from-mega"));
         from_mega.send(mcu.boot().as_bytes(), 0);
         let mut imu = SimMpu9255::new(rng.fork("imu").next_u64());
         let imu_rate_hz = 200.0;
@@ -250,21 +252,36 @@ impl World {
                     gain_rad_s_per_v: world.motor.gain_rad_s_per_v * truth.motor_gain_scale[k],
                     ..world.motor.clone()
                 })
+                .with_load(truth.wheel_load_torque_nm[k])
             }),
+            battery: Battery::new(
+                world.motor.battery_voltage_v,
+                truth.battery_resistance_ohm,
+                truth.battery_drop_v_per_ah,
+            ),
             mecanum: Mecanum::new(&world.robot),
             limits: TractionLimits::new(&world.traction, &world.robot),
             mcu,
             actuation: Actuation::default(),
             next_tick_ns: u64::from(config.mega.control_period_us) * 1000,
             ticks_at_last_tick: [0; 4],
-            to_mega: SerialLine::with_capacity(config.link.mega_baud, HOST_TX_CAPACITY_BYTES),
+            to_mega: SerialLine::with_capacity(config.link.mega_baud, HOST_TX_CAPACITY_BYTES)
+                .with_usb(truth.host_usb, rng.fork("usb-to-mega")),
             from_mega,
-            from_lidar: SerialLine::with_capacity(config.link.lidar_baud, LIDAR_TX_CAPACITY_BYTES),
-            lidar: SimLidar::new(&world.lidar, &world.robot, rng.fork("lidar")).with_range_errors(
-                truth.lidar_range_scale,
-                truth.lidar_range_offset_m,
-                truth.lidar_noise_per_m,
-            ),
+            from_lidar: SerialLine::with_capacity(config.link.lidar_baud, LIDAR_TX_CAPACITY_BYTES)
+                .with_usb(truth.lidar_usb, rng.fork("usb-from-lidar")),
+            lidar: {
+                let lidar = SimLidar::new(&world.lidar, &world.robot, rng.fork("lidar"))
+                    .with_range_errors(
+                        truth.lidar_range_scale,
+                        truth.lidar_range_offset_m,
+                        truth.lidar_noise_per_m,
+                    );
+                match truth.lidar_rotation() {
+                    Some(rotation) => lidar.with_rotation(rotation),
+                    None => lidar,
+                }
+            },
             scene: LidarScene::new(&field, &scenario.clutter, world.robot.lidar_height_m),
             imu: Rc::new(RefCell::new(imu)),
             shop,
@@ -307,6 +324,16 @@ impl World {
     /// The world's truth (what the robot's configuration gets wrong).
     pub fn truth(&self) -> &WorldTruth {
         &self.truth
+    }
+
+    /// Ground truth: the battery (its voltage now and the charge drawn).
+    pub fn battery(&self) -> &Battery {
+        &self.battery
+    }
+
+    /// Ground truth: the lidar's head (its true rate now).
+    pub fn lidar(&self) -> &SimLidar {
+        &self.lidar
     }
 
     /// Simulated time, ns.
@@ -485,10 +512,20 @@ impl World {
         }
 
         let dt_s = self.step_ns as f64 * 1e-9;
-        let volts_per_pwm =
-            self.config.motor.battery_voltage_v / f64::from(self.config.mega.pwm_max);
+        let pwm_max = f64::from(self.config.mega.pwm_max);
+        let volts_per_pwm = self.battery.voltage_v() / pwm_max;
         for (motor, &pwm) in self.motors.iter_mut().zip(&self.actuation.pwm) {
             motor.step(f64::from(pwm) * volts_per_pwm, dt_s);
+        }
+        if !self.battery.is_stiff() {
+            // The bridges pass each motor's current at its PWM duty.
+            let motors_a: f64 = self
+                .motors
+                .iter()
+                .zip(&self.actuation.pwm)
+                .map(|(m, &pwm)| m.current_a() * f64::from(pwm).abs() / pwm_max)
+                .sum();
+            self.battery.draw(ELECTRONICS_CURRENT_A + motors_a, dt_s);
         }
         let wheel_speeds = self.motors.each_ref().map(|m| m.speed_rad_s());
         let ground = Ground {

@@ -174,7 +174,7 @@ pub struct SimSteps {
     /// Per wheel, one sample per telemetry batch.
     pub wheels: Vec<Vec<Sample>>,
     /// The simulated motors' true models (delay 0: the simulated Mega applies PWM at its
-    /// tick).
+    /// tick; the dead zone with the wheel's load torque).
     pub truth: [MotorModel; 4],
     /// The battery's true voltage (what a team measures with a multimeter first), V.
     pub battery_v: f64,
@@ -243,7 +243,9 @@ pub fn run_in_sim(config: &Config, plan: &StepPlan) -> SimSteps {
     let truth = std::array::from_fn(|k| MotorModel {
         gain_rad_s_per_v: config.motor.gain_rad_s_per_v * truth_draw.motor_gain_scale[k],
         time_constant_s: config.motor.time_constant_s,
-        dead_zone_v: config.motor.dead_zone_v,
+        // The floor's load torque acts as more dead zone (`ratf_sim::motor::load_voltage_v`).
+        dead_zone_v: config.motor.dead_zone_v
+            + ratf_sim::motor::load_voltage_v(&config.motor, truth_draw.wheel_load_torque_nm[k]),
         delay_s: 0.0,
     });
     SimSteps {
