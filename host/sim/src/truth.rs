@@ -277,11 +277,6 @@ impl WorldTruth {
             footprint_length_m,
             footprint_width_m,
             body_offset_m,
-        }
-    }
-
-    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise,
-    /// battery and body outline (its offset, [`Self::body_offset_m`], is the world's). (Per-wheel radius differences, the range scale and offset, the lateral
             mega_usb: usb("usb-mega", k.mega_usb),
             host_usb: usb("usb-host", k.host_usb),
             lidar_usb: usb("usb-lidar", k.lidar_usb),
@@ -305,9 +300,10 @@ impl WorldTruth {
         })
     }
 
-    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise
-    /// and battery. (Per-wheel radius differences, the range scale and offset, the lateral
-    /// factor, the gyro's scale and the motors' gains are applied by the world's parts.)
+    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise,
+    /// battery and body outline (its offset, [`Self::body_offset_m`], is the world's).
+    /// (Per-wheel radius differences, the range scale and offset, the lateral factor, the
+    /// gyro's scale and the motors' gains are applied by the world's parts.)
     pub fn true_config(&self, beliefs: &Config) -> Config {
         let mut truth = beliefs.clone();
         let robot = &mut truth.robot;
@@ -392,14 +388,6 @@ impl std::fmt::Display for WorldTruth {
             self.gyro_bias_rad_s.to_degrees(),
             self.battery_voltage_v,
         )?;
-        write!(
-            f,
-            "; parts in slots (across, gap mm, yaw) {seats}; body {:.0} × {:.0} mm, \
-             centre ({:+.1}, {:+.1}) mm",
-            self.footprint_length_m * 1e3,
-            self.footprint_width_m * 1e3,
-            self.body_offset_m[0] * 1e3,
-            self.body_offset_m[1] * 1e3,
         let loads = self
             .wheel_load_torque_nm
             .iter()
@@ -418,6 +406,15 @@ impl std::fmt::Display for WorldTruth {
             Usb(&self.mega_usb),
             Usb(&self.host_usb),
             Usb(&self.lidar_usb),
+        )?;
+        write!(
+            f,
+            "; parts in slots (across, gap mm, yaw) {seats}; body {:.0} × {:.0} mm, \
+             centre ({:+.1}, {:+.1}) mm",
+            self.footprint_length_m * 1e3,
+            self.footprint_width_m * 1e3,
+            self.body_offset_m[0] * 1e3,
+            self.body_offset_m[1] * 1e3,
         )
     }
 }
