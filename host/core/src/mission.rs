@@ -15,8 +15,8 @@
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
-//! | to drop, the switch open for `lost_part_debounce_s` | the part fell off the magnet | stop and look for it (regripping) |
-//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | crept `regrip_reach_m` without finding it: magnet off, skip the action |
+//! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | the part fell off the magnet: look for it (regripping) |
+//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then crept `regrip_reach_m` without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
@@ -90,14 +90,19 @@ pub struct MissionConfig {
     /// Approaches per action before it is skipped.
     pub max_attempts: u32,
     /// How long the switch must stay open while carrying before the part counts as fallen
-    /// off the magnet, s. 0.1: five of the Mega's telemetry batches (20 ms each), so one
-    /// bounce of the switch on a bump is not a loss; at the cruise speed the robot covers
-    /// 7 cm in that time.
+    /// off the magnet, s; the robot brakes meanwhile, so it never drives away from a part it
+    /// lost. 0.1: five of the Mega's telemetry batches (20 ms each), so one bounce of the
+    /// switch on a bump is not a loss.
     pub lost_part_debounce_s: f64,
+    /// How long the robot stands, magnet on, before it creeps on to look for a fallen part,
+    /// s. 0.4: from the top speed (0.73 m/s) the default 2 m/s² ramp stops it in 0.37 s; a
+    /// part pushed along by the front face closes the switch meanwhile.
+    pub regrip_brake_s: f64,
     /// How far the robot creeps straight on, magnet on, looking for a part that fell off the
-    /// magnet, m. 0.06: a part that slips off lands against or just ahead of the front
-    /// face, which pushes it while the robot brakes (assumption); further on it is off to a
-    /// side, where a straight creep cannot find it.
+    /// magnet, m. 0.15: reversing out of a slot at 0.3 m/s, the robot covers 4 cm before it
+    /// knows (a telemetry batch and the debounce) and 2 cm braking, and a part that slips
+    /// lands up to 5 cm ahead of the face (assumption): 11 cm, and a margin. Chosen on the
+    /// fault bench's tuning seeds 1–10. A part off to a side is not found by a straight creep.
     pub regrip_reach_m: f64,
     /// Speed of that creep, m/s. 0.08: slow enough that the switch (20 mm of travel, read
     /// every 20 ms) closes before the face passes the plate.
@@ -132,7 +137,8 @@ impl Default for MissionConfig {
             back_out_accel_m_s2: 2.0,
             max_attempts: 2,
             lost_part_debounce_s: 0.1,
-            regrip_reach_m: 0.06,
+            regrip_brake_s: 0.4,
+            regrip_reach_m: 0.15,
             regrip_speed_m_s: 0.08,
             exit_on_route_after_pick: false,
             confirm_release: true,
@@ -274,12 +280,14 @@ enum State {
     Finished,
 }
 
-/// The search for a part that fell off the magnet: creeping on from `from`, magnet on,
-/// until the switch closes; then holding still for the grip to settle.
+/// The search for a part that fell off the magnet, magnet on: standing while the robot
+/// brakes, then creeping on from `from` until the switch closes; then holding still for the
+/// grip to settle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Search {
     action: Action,
-    from: Pose2,
+    /// Where the creep began (`None` while braking).
+    from: Option<Pose2>,
     since_us: u64,
     /// Since when the switch is closed again.
     held_since_us: Option<u64>,
@@ -526,10 +534,20 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             });
             return stop;
         }
+        let Some(from) = search.from else {
+            if Self::elapsed_s(now_us, search.since_us) >= self.config.regrip_brake_s {
+                self.state = State::Regripping(Search {
+                    from: Some(pose),
+                    since_us: now_us,
+                    ..search
+                });
+            }
+            return stop;
+        };
         let speed = self.config.regrip_speed_m_s.max(1e-3);
-        // Braking from the carry's speed comes first: allow for it, then for the creep.
-        let limit_s = 1.0 + 2.0 * self.config.regrip_reach_m / speed;
-        let travelled = search.from.position().distance(pose.position());
+        // Twice the creep's time: the estimate lags the wheels.
+        let limit_s = 0.5 + 2.0 * self.config.regrip_reach_m / speed;
+        let travelled = from.position().distance(pose.position());
         if travelled >= self.config.regrip_reach_m
             || Self::elapsed_s(now_us, search.since_us) > limit_s
         {
@@ -685,26 +703,25 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 since_us,
                 open_since_us,
             } => {
-                if self.config.watch_carried_part {
-                    let open_since_us = (!switch).then(|| open_since_us.unwrap_or(now_us));
-                    if open_since_us.is_some_and(|t| {
-                        Self::elapsed_s(now_us, t) >= self.config.lost_part_debounce_s
-                    }) {
+                let open_since_us = (self.config.watch_carried_part && !switch)
+                    .then(|| open_since_us.unwrap_or(now_us));
+                if let Some(open_us) = open_since_us {
+                    if Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s {
                         events.push(MissionEvent::PartSlipped);
                         self.state = State::Regripping(Search {
                             action,
-                            from: pose,
-                            since_us: now_us,
+                            from: None,
+                            since_us: open_us,
                             held_since_us: None,
                         });
                         return stop;
                     }
-                    self.state = State::ToDrop {
-                        action,
-                        since_us,
-                        open_since_us,
-                    };
                 }
+                self.state = State::ToDrop {
+                    action,
+                    since_us,
+                    open_since_us,
+                };
                 // Carrying, the switch is pressed by the part: the follower must arrive at the
                 // pose, not stop at the switch.
                 let (twist, arrival) = self.navigator.update(now_us, pose, false);
@@ -734,6 +751,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         self.skip(action, SkipReason::Unreachable, now_us, events);
                         stop
                     }
+                    // The switch is open: brake until it is known whether the part is lost.
+                    Arrival::Moving if open_since_us.is_some() => stop,
                     Arrival::Moving => twist,
                 }
             }
@@ -1109,6 +1128,32 @@ mod tests {
         assert!(!events.contains(&MissionEvent::PartSlipped), "{events:?}");
         assert!(events.contains(&MissionEvent::Placed { slot: A.drop }));
         assert_eq!(m.actions().outcomes, [(A, true)]);
+    }
+
+    #[test]
+    fn the_robot_brakes_while_the_switch_is_open_and_drives_on_once_it_closes() {
+        let mut m = mission(vec![A]);
+        m.config.exit_on_route_after_pick = true;
+        m.navigator.extra_ticks = 20;
+        let mut k = 0u64;
+        let mut tick = |m: &mut Mission<FakeNavigator, Script>, pressed: bool| {
+            k += 1;
+            m.tick(k * 20_000, Pose2::default(), pressed)
+        };
+        while !matches!(m.state, State::ToDrop { .. }) {
+            tick(&mut m, true);
+        }
+        assert!(tick(&mut m, true).twist.vx_m_s > 0.0, "carrying, it drives");
+        // Open for 60 ms, under the 100 ms debounce: standing, the part not yet lost.
+        for _ in 0..3 {
+            let out = tick(&mut m, false);
+            assert_eq!(out.twist, BodyTwist::default());
+            assert!(out.events.is_empty() && out.solenoid_on);
+        }
+        assert!(
+            tick(&mut m, true).twist.vx_m_s > 0.0,
+            "closed again: on it goes"
+        );
     }
 
     #[test]

@@ -3,6 +3,7 @@
 use ratf_core::config::Config;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::field::{Field, PartColor};
+use ratf_core::kinematics::{BodyTwist, Mecanum};
 use ratf_core::runtime::{Input, LidarCommand, Outputs, WheelCommand};
 
 use crate::devices::SimDevices;
@@ -50,16 +51,27 @@ fn run(
     until_ms: u64,
     magnet: bool,
 ) -> Vec<(u64, Input)> {
+    let command = WheelCommand {
+        solenoid_on: magnet,
+        ..WheelCommand::STOP
+    };
+    run_with(devices, injector, until_ms, command)
+}
+
+/// [`run`] with `command` resent every 20 ms.
+fn run_with(
+    devices: &mut SimDevices,
+    injector: &mut FaultInjector,
+    until_ms: u64,
+    command: WheelCommand,
+) -> Vec<(u64, Input)> {
     let mut inputs = Vec::new();
     while devices.now_us() < until_ms * 1_000 {
         injector.before_step(devices);
         devices.advance().unwrap();
         if devices.now_us().is_multiple_of(20_000) {
             devices.apply_outputs(&Outputs {
-                wheels: Some(WheelCommand {
-                    solenoid_on: magnet,
-                    ..WheelCommand::STOP
-                }),
+                wheels: Some(command),
                 ..Outputs::default()
             });
         }
@@ -132,13 +144,24 @@ fn a_wheel_slip_burst_loosens_the_grip_and_ends() {
 }
 
 #[test]
-fn a_part_slips_off_the_magnet_and_leaves_the_switch() {
+fn a_part_slips_off_the_magnet_out_of_its_slot_and_leaves_the_switch() {
     let mut devices = devices();
-    // The magnet picks the part at the robot's face first; the slip comes at 1 s.
+    // The magnet picks the part at the robot's face first; the slip is due at 1 s, but
+    // comes only once the part is out of its slot.
     let mut injector = FaultInjector::new(plan(FaultKind::PartSlip, 1_000, None, 4), vec![]);
     run(&mut devices, &mut injector, 900, true);
     assert!(devices.world().shop().carried().is_some(), "picked");
     run(&mut devices, &mut injector, 1_200, true);
+    assert_eq!(injector.injected(), [false], "not while in the slot");
+    let reverse = Mecanum::new(&Config::default().robot)
+        .inverse(BodyTwist::new(-0.2, 0.0, 0.0))
+        .map(|w| w as f32);
+    let backing_out = WheelCommand {
+        wheel_speeds_rad_s: reverse,
+        solenoid_on: true,
+        ..WheelCommand::STOP
+    };
+    run_with(&mut devices, &mut injector, 2_500, backing_out);
     assert_eq!(injector.injected(), [true]);
     let world = devices.world();
     assert_eq!(world.shop().carried(), None);

@@ -26,8 +26,8 @@ pub enum FaultKind {
     /// Three bursts of 0.3–1 s in which the floor passes on only 50–80 % of the wheels'
     /// motion.
     WheelSlip,
-    /// The carried part slips off the magnet (the next carry after the fault's time) and
-    /// comes to rest 20–50 mm in front of it.
+    /// The carried part slips off the magnet (the next carry out of a slot after the fault's
+    /// time) and comes to rest 20–50 mm in front of it.
     PartSlip,
     /// A part standing in an incoming slot is knocked 10–30 mm out of it, turned up to 8°.
     PartKnocked,
@@ -332,7 +332,13 @@ impl FaultInjector {
             }
             FaultKind::WheelSlip if first => world.set_grip(rng.uniform_in(0.5, 0.8)),
             FaultKind::PartSlip => {
-                if let Some(part) = world.shop().carried() {
+                // In transit only: a part still inside a slot is being picked or placed, with
+                // the robot standing.
+                let in_transit = world.shop().carried().filter(|&part| {
+                    let held = world.shop().footprint(part, world.body().pose).pose;
+                    world.shop().slot_at(held).is_none()
+                });
+                if let Some(part) = in_transit {
                     let held = world.shop().footprint(part, world.body().pose).pose;
                     // Away from the magnet's face (the part's local −x points at the robot).
                     let away = rng.uniform_in(0.020, 0.050);

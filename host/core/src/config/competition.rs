@@ -210,6 +210,14 @@ impl MissionConfig {
             "from one telemetry batch (20 ms) to a time in which the robot crosses the floor",
         );
         c.within(
+            "regrip_brake_s",
+            self.regrip_brake_s,
+            0.0,
+            5.0,
+            "s",
+            "the robot stops from its top speed in well under a second",
+        );
+        c.within(
             "regrip_reach_m",
             self.regrip_reach_m,
             0.0,
