@@ -260,12 +260,12 @@ impl RouteDriver {
     }
 }
 
-/// Run every seed in both conditions; `on_run` hears about each finished run. With
+/// Run every seed of `seeds` in both conditions; `on_run` hears about each finished run. With
 /// `calibrated`, each seed's world is first calibrated ([`calibrate::run_in_sim`], with the
 /// tape measures) and both estimators believe the calibration.
 pub fn run(
     config: &Config,
-    seeds: u64,
+    seeds: std::ops::RangeInclusive<u64>,
     calibrated: bool,
     mut on_run: impl FnMut(Condition, u64, &Metrics, &Metrics),
 ) -> Result<Figures, CalibrateError> {
@@ -275,7 +275,7 @@ pub fn run(
         .into_iter()
         .enumerate()
     {
-        for seed in 1..=seeds {
+        for seed in seeds.clone() {
             let mut world = config.clone();
             world.sim.seed = seed;
             let (beliefs, refused) = calibrate::beliefs(&world, calibrated)?;
