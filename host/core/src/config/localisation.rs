@@ -124,12 +124,12 @@ pub struct LocalisationConfig {
     pub inflate_above_median_nis: f64,
     /// Standard deviation of the four beacons' common shift, per axis, m: a consider
     /// parameter (`localisation::consider`), not estimated but added to the reported pose
-    /// covariance. 0.003: the organisers' placement σ of 5 mm per pole per axis
-    /// (real-world-errors.md) over √4 poles is 2.5 mm — `ratf calibrate` fits the layout's
-    /// shape from the tape measures, but where the layout stands rests on the nominal
-    /// positions, so its common shift keeps about the prior's σ —; seeds 1–10 of the
-    /// realistic world after calibration gave an RMS of 1.8 mm along x and 3.5 mm along y
-    /// (2.8 mm per axis), hence 3 mm.
+    /// covariance. 0.0025: the organisers' placement σ of 5 mm per pole per axis
+    /// (real-world-errors.md) over √4 poles — `ratf calibrate` fits the layout's shape from
+    /// the tape measures, but where the layout stands rests on the nominal positions, so
+    /// its common shift keeps about the prior's σ (after calibration in the realistic
+    /// world, RMS per axis: seeds 1–10 1.8 mm along x and 3.5 mm along y, seeds 11–60
+    /// 2.1 and 2.2 mm).
     pub beacon_frame_shift_std_m: f64,
     /// Standard deviation of the four beacons' common rotation about their centroid,
     /// degrees: a consider parameter, as above. 0.14: 5 mm per pole per axis over
@@ -175,7 +175,7 @@ impl Default for LocalisationConfig {
             gate_chi2: 9.21,
             relock_after_scans: 3,
             inflate_above_median_nis: 5.99,
-            beacon_frame_shift_std_m: 0.003,
+            beacon_frame_shift_std_m: 0.0025,
             beacon_frame_rotation_std_deg: 0.14,
             lidar_zero_angle_std_deg: 0.05,
         }
