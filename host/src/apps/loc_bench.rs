@@ -434,6 +434,25 @@ mod tests {
         );
     }
 
+    /// The headline claim on one tuning seed: in the realistic world, calibrated, our
+    /// localiser meets 10 mm and 0.5° and its mean NEES lies in the one-run 95 % band.
+    #[test]
+    fn a_calibrated_realistic_run_is_accurate_and_consistent() {
+        let mut config = Config::default();
+        config.sim.world = ratf_core::config::WorldProfile::Realistic;
+        let figures = run(&config, 2..=2, true, |_, _, _, _| {}).unwrap();
+        let ours = figures.ours.default;
+        let (lo, hi) = nees_band(3, 1);
+        assert!(
+            ours.pos_rmse_m <= 0.010 && ours.heading_rmse_deg <= 0.5,
+            "{ours:?}"
+        );
+        assert!(
+            (lo..=hi).contains(&ours.nees_mean),
+            "{ours:?} not in [{lo}, {hi}]"
+        );
+    }
+
     #[test]
     fn one_default_run_drives_the_whole_route() {
         let mut config = Config::default();
