@@ -56,11 +56,14 @@ fn nees_is_consistent_on_synthetic_runs() {
         let mut scenario = Scenario::new(figure_eight, 20.0, 100 + seed);
         scenario.gyro_bias_rad_s = 0.02;
         // The synthetic scans have no systematic error (exact beacons, mount and ranges),
-        // so the floors meant for those are set near zero: this tests the rest of the
-        // model's consistency.
+        // so the floors and the consider parameters meant for those are set near zero:
+        // this tests the rest of the model's consistency.
         let config = LocalisationConfig {
             range_floor_std_m: 1e-4,
             bearing_floor_std_deg: 1e-3,
+            beacon_frame_shift_std_m: 0.0,
+            beacon_frame_rotation_std_deg: 0.0,
+            lidar_zero_angle_std_deg: 0.0,
             ..LocalisationConfig::default()
         };
         let mut loc = Localiser::new(

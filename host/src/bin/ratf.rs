@@ -372,6 +372,10 @@ impl BenchArgs {
 struct LocBenchArgs {
     #[command(flatten)]
     bench: BenchArgs,
+    /// The first seed: the runs use seeds first-seed .. first-seed + seeds − 1 (report on
+    /// seeds other than those anything was tuned on).
+    #[arg(long, default_value_t = 1)]
+    first_seed: u64,
     /// Calibrate each seed's world first (the calibration drive with tape measures) and
     /// run both estimators with the calibrated configuration.
     #[arg(long)]
@@ -891,6 +895,7 @@ fn referee_command(args: &RefereeArgs) -> anyhow::Result<()> {
 fn loc_bench_command(
     LocBenchArgs {
         bench: args,
+        first_seed,
         calibrated,
     }: &LocBenchArgs,
 ) -> anyhow::Result<()> {
@@ -902,7 +907,7 @@ fn loc_bench_command(
     }
     let figures = loc_bench::run(
         &config,
-        args.seeds,
+        *first_seed..=first_seed.saturating_add(args.seeds.saturating_sub(1)),
         *calibrated,
         |condition, seed, ours, original| {
             eprintln!(

@@ -5,6 +5,8 @@
 
 use nalgebra::{Matrix2, Matrix4, SMatrix, Vector2, Vector4};
 
+use super::consider::Consider;
+
 use crate::config::LocalisationConfig;
 use crate::field::geometry::{Pose2, Vec2, hypot, wrap_angle};
 use crate::odometry::BodyIncrement;
@@ -85,13 +87,17 @@ pub enum UpdateOutcome {
     Degenerate,
 }
 
-/// Mean and covariance of (x, y, θ, b).
+/// Mean and covariance of (x, y, θ, b), with the mean's sensitivity to the consider
+/// parameters ([`super::consider`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EkfState {
     /// x (m), y (m), θ (rad, wrapped to (−π, π]), gyro z bias (rad/s).
     pub mean: Vector4<f64>,
-    /// Covariance.
+    /// Covariance of the error relative to the beacons (what the gate and the gain use).
     pub covariance: Matrix4<f64>,
+    /// ∂mean/∂p, p the consider parameters (beacons' common shift x, y and rotation, the
+    /// lidar's zero-angle error); zero after a reset.
+    pub sensitivity: Matrix4<f64>,
 }
 
 impl EkfState {
@@ -102,6 +108,7 @@ impl EkfState {
         Self {
             mean: Vector4::new(pose.x, pose.y, wrap_angle(pose.yaw_rad), bias_rad_s),
             covariance: Matrix4::from_diagonal(&Vector4::new(sp * sp, sp * sp, sh * sh, bias_var)),
+            sensitivity: Matrix4::zeros(),
         }
     }
 
@@ -186,6 +193,7 @@ impl EkfState {
         let mut next = Self {
             mean,
             covariance: symmetric(covariance),
+            sensitivity: f * self.sensitivity,
         };
         if let Some(z) = zero_rate_z {
             next.update_bias(z, rate_var);
@@ -205,16 +213,19 @@ impl EkfState {
         let i_kh = Matrix4::identity() - k * h.transpose();
         let p = i_kh * self.covariance * i_kh.transpose() + k * k.transpose() * rate_var;
         self.covariance = symmetric(p);
+        self.sensitivity = i_kh * self.sensitivity;
     }
 
     /// Offer one beacon observation (lidar mounted at `mount` in the robot frame, beacon
-    /// centre `beacon` in the world); applied when its NIS is within `gate_chi2`.
+    /// centre `beacon` in the world); applied when its NIS is within `gate_chi2`. The
+    /// sensitivity to the consider parameters `consider` follows the gain.
     pub fn update(
         &mut self,
         obs: &Observation,
         beacon: Vec2,
         mount: Pose2,
         gate_chi2: f64,
+        consider: &Consider,
     ) -> UpdateOutcome {
         let Some((h, jac)) = predicted_measurement(&self.mean, beacon, mount) else {
             return UpdateOutcome::Degenerate;
@@ -238,6 +249,8 @@ impl EkfState {
         let i_kh = Matrix4::identity() - k * jac;
         let p = i_kh * self.covariance * i_kh.transpose() + k * obs.covariance * k.transpose();
         self.covariance = symmetric(p);
+        let h_position = jac.fixed_view::<2, 2>(0, 0).into_owned();
+        self.sensitivity = i_kh * self.sensitivity + k * consider.jacobian(beacon, &h_position);
         UpdateOutcome::Applied { nis }
     }
 
@@ -298,6 +311,13 @@ mod tests {
 
     fn mount() -> Pose2 {
         Pose2::new(0.07, 0.0, 172f64.to_radians())
+    }
+
+    fn no_consider() -> Consider {
+        Consider {
+            covariance: Matrix4::zeros(),
+            centre: Vec2::ZERO,
+        }
     }
 
     #[test]
@@ -374,7 +394,7 @@ mod tests {
             time_us: 0.0,
         };
         let before = state;
-        let outcome = state.update(&obs, b, mount(), 9.21);
+        let outcome = state.update(&obs, b, mount(), 9.21, &no_consider());
         assert!(
             matches!(outcome, UpdateOutcome::Applied { .. }),
             "{outcome:?}"
@@ -388,7 +408,7 @@ mod tests {
         let mut tight = EkfState::new(Pose2::new(0.3, 0.0, 0.3), 0.0, 1e-4, &config);
         tight.covariance = Matrix4::identity() * 1e-6;
         assert!(matches!(
-            tight.update(&obs, b, mount(), 9.21),
+            tight.update(&obs, b, mount(), 9.21, &no_consider()),
             UpdateOutcome::Gated { .. }
         ));
     }

@@ -3,6 +3,7 @@
 use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix};
 
 use super::beacons::{Expected, extract};
+use super::consider::Consider;
 use super::ekf::{BIAS, EkfState, Observation, StepInput, THETA, UpdateOutcome, X, Y};
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
@@ -21,6 +22,7 @@ pub struct Localiser {
     gyro_noise_density: f64,
     mount: Pose2,
     beacons: [Beacon; 4],
+    consider: Consider,
     history: History,
     gyro: GyroIntegrator,
     health: Health,
@@ -50,6 +52,7 @@ impl Localiser {
             gyro_noise_density: robot.imu.gyro_noise_density_rad_s_sqrt_hz,
             mount: robot.lidar_mount(),
             beacons: *field.beacons(),
+            consider: Consider::new(config, field.beacons()),
             history: History::new(state, time_us, config.history_steps),
             gyro: GyroIntegrator::new(),
             health,
@@ -79,8 +82,15 @@ impl Localiser {
         let latest = self.history.latest();
         self.health.time_us = latest.time_us;
         self.health.gyro_bias_rad_s = Some(latest.state.mean[BIAS]);
-        let p = pose_covariance(&latest.state);
+        let p = self.world_covariance(&latest.state);
         self.health.set_covariance(&p);
+    }
+
+    /// The covariance of `state`'s pose in the field's frame: the filter's own, relative to
+    /// the beacons, plus what the consider parameters (the beacons' frame and the lidar's
+    /// zero angle) add through the state's sensitivity to them.
+    fn world_covariance(&self, state: &EkfState) -> Matrix3<f64> {
+        pose_covariance(state) + self.consider.pose_covariance(&state.sensitivity)
     }
 
     /// Scan points de-skewed into the lidar frame at `reference` (the pose of the robot
@@ -134,8 +144,8 @@ impl Localiser {
         let t_ref = reference.time_us as f64;
         let (lo, hi) = (obs.time_us.min(t_ref), obs.time_us.max(t_ref));
         let mut relative = EkfState {
-            mean: reference.state.mean,
             covariance: Matrix4::zeros(),
+            ..reference.state
         };
         for i in 0..self.history.len() {
             let Some(Step {
@@ -188,7 +198,13 @@ impl Localiser {
             report.beacons_unseen += 1;
             return;
         };
-        match state.update(obs, centre, self.mount, self.config.gate_chi2) {
+        match state.update(
+            obs,
+            centre,
+            self.mount,
+            self.config.gate_chi2,
+            &self.consider,
+        ) {
             UpdateOutcome::Applied { nis } => {
                 report.beacons_used += 1;
                 report.nis[beacon.index] = Some(nis);
@@ -289,8 +305,8 @@ fn scale_pose_covariance(state: &EkfState, scale: f64) -> EkfState {
     let root = scale.max(0.0).sqrt();
     let d = Matrix4::from_diagonal(&nalgebra::Vector4::new(root, root, root, 1.0));
     EkfState {
-        mean: state.mean,
         covariance: d * state.covariance * d,
+        ..*state
     }
 }
 
@@ -427,7 +443,7 @@ impl PoseEstimator for Localiser {
     }
 
     fn covariance(&self) -> Matrix3<f64> {
-        pose_covariance(&self.history.latest().state)
+        self.world_covariance(&self.history.latest().state)
     }
 
     fn health(&self) -> Health {

@@ -27,7 +27,9 @@
 //!   `translation_var_m2_per_rad`·|dθ|; multiplied by `slip_translation_var_factor` when the
 //!   step slipped (below);
 //! - heading from the gyro: N²·dt (N the gyro's noise density, `robot.imu`, datasheet)
-//!   plus (`gyro_scale_std`·dθ)²; the bias random-walks with `gyro_bias_walk_rad_s_sqrt_s`;
+//!   plus (`gyro_scale_std`·dθ)² (a scale bias made a per-step noise, hence larger than
+//!   the datasheet's tolerance: see the key); the bias random-walks with
+//!   `gyro_bias_walk_rad_s_sqrt_s`;
 //! - **wheel slip in rotation**: mecanum wheels slip most in rotation, the gyro does not. A
 //!   step whose wheel yaw increment differs from the gyro's by more than
 //!   `slip_threshold_rad` is counted as slipping (health) and its translation noise is
@@ -64,11 +66,23 @@
 //! `relock_after_scans` scans in a row, the pose covariance is raised back to the reset
 //! values around the current mean, so that the beacons can be found and taken again.
 //!
+//! **Errors common to every scan** ([`consider`]). After calibration the beacons still
+//! stand, as a whole, a few millimetres and about a tenth of a degree off where the
+//! configuration puts them, and the lidar's zero angle is off by a few hundredths of a
+//! degree. No scan can see that (the beacons are the only reference), and treating it as
+//! per-scan noise would make the filter ever more sure of a biased pose. These are consider
+//! parameters: not estimated; each state carries the estimate's sensitivity to them, and
+//! the covariance reported ([`PoseEstimator::covariance`], [`Health`]) adds what they
+//! contribute (`beacon_frame_shift_std_m`, `beacon_frame_rotation_std_deg`,
+//! `lidar_zero_angle_std_deg`). The gate and the gain keep the covariance relative to the
+//! beacons, which is what a shift common to all of them leaves unchanged.
+//!
 //! # The original ([`original::OriginalFilter`])
 //!
 //! original-system.md §5, number for number: see that module's doc.
 
 pub mod beacons;
+pub mod consider;
 pub mod ekf;
 pub mod gyro;
 pub mod history;
