@@ -705,17 +705,17 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             } => {
                 let open_since_us = (self.config.watch_carried_part && !switch)
                     .then(|| open_since_us.unwrap_or(now_us));
-                if let Some(open_us) = open_since_us {
-                    if Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s {
-                        events.push(MissionEvent::PartSlipped);
-                        self.state = State::Regripping(Search {
-                            action,
-                            from: None,
-                            since_us: open_us,
-                            held_since_us: None,
-                        });
-                        return stop;
-                    }
+                if let Some(open_us) = open_since_us
+                    && Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s
+                {
+                    events.push(MissionEvent::PartSlipped);
+                    self.state = State::Regripping(Search {
+                        action,
+                        from: None,
+                        since_us: open_us,
+                        held_since_us: None,
+                    });
+                    return stop;
                 }
                 self.state = State::ToDrop {
                     action,
