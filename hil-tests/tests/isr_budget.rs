@@ -36,7 +36,7 @@ fn encoder_isr_fits_100_cycles() {
 /// further apart than two edges: at 45 000 edges/s that needs the jitter to stay under
 /// 355 − 320 = 35 cycles, at 47 000 under 340 − 320 = 20. The worst are the two serial
 /// handlers' entries (24: the read-modify-write of `UCSR0B` that turns their own interrupt
-/// off before their `sei`); the main loop's longest critical sections are 12 cycles (its
+/// off before their `sei`); the longest critical sections left are 12 cycles (the
 /// read-modify-writes of `UCSR0B`). The boot's sections (`main`'s stack frame set-up,
 /// `Peripherals::take`, 48 cycles, and `Encoders::start`) run before interrupts are first
 /// enabled (`isr_cycles::boot_only_clis`) and are listed apart.
