@@ -151,7 +151,124 @@ mod tests {
         assert_eq!(large.dropped(), 3);
     }
 
+    /// A ring byte that can "interrupt" the code using it: after a set number of accesses
+    /// (to any byte of the ring), the pending handler runs to completion, as an interrupt
+    /// would between two instructions.
+    struct Interruptible(Cell<u8>);
+
+    thread_local! {
+        static ACCESSES_LEFT: Cell<Option<usize>> = const { Cell::new(None) };
+        static HANDLER: core::cell::RefCell<Option<Box<dyn FnOnce()>>> =
+            const { core::cell::RefCell::new(None) };
+    }
+
+    fn access() {
+        let left = ACCESSES_LEFT.get();
+        match left {
+            Some(0) => {
+                ACCESSES_LEFT.set(None);
+                if let Some(handler) = HANDLER.take() {
+                    handler();
+                }
+            }
+            Some(n) => ACCESSES_LEFT.set(Some(n - 1)),
+            None => {}
+        }
+    }
+
+    /// Run `handler` before the `after`-th ring access from now (0: before the next one).
+    fn interrupt_after(after: usize, handler: impl FnOnce() + 'static) {
+        ACCESSES_LEFT.set(Some(after));
+        HANDLER.set(Some(Box::new(handler)));
+    }
+
+    fn no_interrupt() {
+        ACCESSES_LEFT.set(None);
+        HANDLER.set(None);
+    }
+
+    impl SharedByte for Interruptible {
+        fn get(&self) -> u8 {
+            access();
+            self.0.get()
+        }
+
+        fn set(&self, value: u8) {
+            access();
+            self.0.set(value);
+        }
+    }
+
+    fn interruptible_ring() -> &'static Ring<Interruptible, 8> {
+        Box::leak(Box::new(Ring::new(
+            core::array::from_fn(|_| Interruptible(Cell::new(0))),
+            Interruptible(Cell::new(0)),
+            Interruptible(Cell::new(0)),
+            Interruptible(Cell::new(0)),
+        )))
+    }
+
     proptest! {
+        /// The transmit side: the main loop pushes, the consumer interrupts it at any ring
+        /// access and pops any number of bytes. Every byte pushed is popped once, in order.
+        #[test]
+        fn a_push_interrupted_anywhere_by_pops_loses_and_reorders_nothing(
+            steps in proptest::collection::vec((any::<u8>(), 0usize..6, 0usize..4), 0..200),
+        ) {
+            let ring = interruptible_ring();
+            let popped = std::rc::Rc::new(core::cell::RefCell::new(Vec::new()));
+            let mut accepted = Vec::new();
+            for (byte, at, pops) in steps {
+                let sink = popped.clone();
+                interrupt_after(at, move || {
+                    for _ in 0..pops {
+                        if let Some(b) = ring.pop() {
+                            sink.borrow_mut().push(b);
+                        }
+                    }
+                });
+                if ring.push(byte) {
+                    accepted.push(byte);
+                }
+                no_interrupt();
+            }
+            while let Some(b) = ring.pop() {
+                popped.borrow_mut().push(b);
+            }
+            prop_assert_eq!(&*popped.borrow(), &accepted);
+        }
+
+        /// The receive side: the main loop pops, the producer interrupts it at any ring
+        /// access and pushes any number of bytes. Every byte accepted comes out once, in
+        /// order, and a byte is refused only when 8 are waiting.
+        #[test]
+        fn a_pop_interrupted_anywhere_by_pushes_loses_and_reorders_nothing(
+            steps in proptest::collection::vec((0usize..5, proptest::collection::vec(any::<u8>(), 0..4)), 0..200),
+        ) {
+            let ring = interruptible_ring();
+            let accepted = std::rc::Rc::new(core::cell::RefCell::new(Vec::new()));
+            let mut popped = Vec::new();
+            for (at, bytes) in steps {
+                let log = accepted.clone();
+                interrupt_after(at, move || {
+                    for b in bytes {
+                        if ring.push(b) {
+                            log.borrow_mut().push(b);
+                        }
+                    }
+                });
+                if let Some(b) = ring.pop() {
+                    popped.push(b);
+                }
+                no_interrupt();
+                prop_assert!(accepted.borrow().len() - popped.len() <= 8);
+            }
+            while let Some(b) = ring.pop() {
+                popped.push(b);
+            }
+            prop_assert_eq!(&popped, &*accepted.borrow());
+        }
+
         /// Any interleaving of pushes and pops behaves as a bounded FIFO that drops when full.
         #[test]
         fn behaves_as_a_bounded_fifo(ops in proptest::collection::vec(any::<Option<u8>>(), 0..600)) {
