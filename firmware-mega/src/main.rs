@@ -64,7 +64,7 @@ fn main() -> ! {
                 switch_pressed: gpio.switch_pressed(),
                 quadrature_errors: sample.quadrature_errors,
                 i2c_faults: shield.faults() as u8,
-                serial_bytes_dropped: usart.bytes_dropped() as u8,
+                serial_bytes_dropped: usart.bytes_dropped(),
             };
             // Telemetry first, then the controllers and the I2C writes: the batch leaves at
             // the same time after every tick, whatever the motors are doing.

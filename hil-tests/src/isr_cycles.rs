@@ -14,7 +14,7 @@
 //! instruction it has no timing for.
 
 use crate::firmware::FirmwareError;
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::fmt;
 use std::path::Path;
 use std::process::Command;
@@ -421,6 +421,184 @@ pub fn critical_sections(
         .collect()
 }
 
+/// ATmega2560 interrupt vectors, the reset vector (0) included.
+pub const VECTOR_COUNT: u32 = 57;
+
+/// What a function can do before it returns, for [`Reach`].
+#[derive(Clone, Copy, Debug, Default)]
+struct FunctionInfo {
+    /// It (or a function it calls) can execute a `sei`.
+    enables: bool,
+    /// It can return (reach a `ret`); a function that never returns (`main`, the panic
+    /// handler) is followed by unrelated code, which a call to it does not reach.
+    returns: bool,
+}
+
+/// Every address control can reach from `starts` (calls followed into the callee, and on
+/// after the call when the callee can return; `ret`/`reti` end a path), stopping at `sei`
+/// when `stop_at_sei`. With `stop_at_sei`, a call to a function that can execute a `sei`
+/// does not continue after the call (interrupts may be on there); those continuations are
+/// collected in `enabled`.
+struct Reach<'a> {
+    code: &'a BTreeMap<u32, Instruction>,
+    visited: BTreeSet<u32>,
+    enabled: Vec<u32>,
+    functions: HashMap<u32, Option<FunctionInfo>>,
+}
+
+impl<'a> Reach<'a> {
+    fn new(code: &'a BTreeMap<u32, Instruction>) -> Self {
+        Self {
+            code,
+            visited: BTreeSet::new(),
+            enabled: Vec::new(),
+            functions: HashMap::new(),
+        }
+    }
+
+    fn instruction(&self, address: u32) -> Result<&'a Instruction, AnalysisError> {
+        self.code
+            .get(&address)
+            .ok_or(AnalysisError::NoInstruction { address })
+    }
+
+    /// The addresses control may go to after `insn` within its function, calls apart
+    /// (`None` for a call, whose successors depend on the callee).
+    fn local_successors(&self, insn: &Instruction) -> Result<Option<Vec<u32>>, AnalysisError> {
+        let next = insn.address + insn.size;
+        let m = insn.mnemonic.as_str();
+        Ok(Some(match m {
+            "ret" | "reti" => Vec::new(),
+            "jmp" | "rjmp" => vec![Walker::target(insn)?],
+            "call" | "rcall" => return Ok(None),
+            "ijmp" | "eijmp" | "icall" | "eicall" => {
+                return Err(AnalysisError::Indirect {
+                    address: insn.address,
+                });
+            }
+            _ if m.starts_with("br") => vec![next, Walker::target(insn)?],
+            _ if SKIPS.contains(&m) => {
+                let skipped = self.instruction(next)?;
+                vec![next, next + skipped.size]
+            }
+            _ => vec![next],
+        }))
+    }
+
+    /// What the function at `entry` can do (memoised; a recursive call is assumed to
+    /// return and not to enable interrupts).
+    fn function(&mut self, entry: u32) -> Result<FunctionInfo, AnalysisError> {
+        match self.functions.get(&entry) {
+            Some(Some(info)) => return Ok(*info),
+            Some(None) => {
+                return Ok(FunctionInfo {
+                    enables: false,
+                    returns: true,
+                });
+            }
+            None => {}
+        }
+        self.functions.insert(entry, None);
+        let mut info = FunctionInfo::default();
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![entry];
+        while let Some(address) = stack.pop() {
+            if !seen.insert(address) {
+                continue;
+            }
+            let insn = self.instruction(address)?;
+            match insn.mnemonic.as_str() {
+                "sei" => info.enables = true,
+                "ret" => info.returns = true,
+                _ => {}
+            }
+            match self.local_successors(insn)? {
+                Some(next) => stack.extend(next),
+                None => {
+                    let callee = self.function(Walker::target(insn)?)?;
+                    info.enables |= callee.enables;
+                    if callee.returns {
+                        stack.push(address + insn.size);
+                    }
+                }
+            }
+        }
+        self.functions.insert(entry, Some(info));
+        Ok(info)
+    }
+
+    /// Walk from `starts`; see the type's documentation.
+    fn walk(&mut self, starts: &[u32], stop_at_sei: bool) -> Result<(), AnalysisError> {
+        let mut stack = starts.to_vec();
+        while let Some(address) = stack.pop() {
+            if !self.visited.insert(address) {
+                continue;
+            }
+            let insn = self.instruction(address)?;
+            if stop_at_sei && insn.mnemonic == "sei" {
+                continue;
+            }
+            match self.local_successors(insn)? {
+                Some(next) => stack.extend(next),
+                None => {
+                    let entry = Walker::target(insn)?;
+                    stack.push(entry);
+                    let callee = self.function(entry)?;
+                    let next = address + insn.size;
+                    if callee.returns && stop_at_sei && callee.enables {
+                        self.enabled.push(next);
+                    } else if callee.returns {
+                        stack.push(next);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The `cli`s that can run only before interrupts are first enabled (the boot's critical
+/// sections): reachable from the reset vector on a path that has not passed a `sei`, and
+/// not reachable from any `sei` nor from any interrupt vector the firmware handles. (An
+/// unhandled vector jumps, through avr-libc's `__bad_interrupt`, to the reset vector: a
+/// restart, so it is left out.) Such a section cannot hold back an encoder sample: the
+/// encoder interrupt is not enabled yet.
+pub fn boot_only_clis(code: &BTreeMap<u32, Instruction>) -> Result<BTreeSet<u32>, AnalysisError> {
+    let mut before = Reach::new(code);
+    before.walk(&[vector_address(0)], true)?;
+    let restarts = |address: u32| -> bool {
+        let Some(insn) = code.get(&address) else {
+            return false;
+        };
+        let Some(handler) = insn.target() else {
+            return false;
+        };
+        handler == vector_address(0)
+            || code.get(&handler).is_some_and(|h| {
+                matches!(h.mnemonic.as_str(), "jmp" | "rjmp") && h.target() == Some(0)
+            })
+    };
+    let mut starts: Vec<u32> = (1..VECTOR_COUNT)
+        .map(vector_address)
+        .filter(|&a| code.contains_key(&a) && !restarts(a))
+        .collect();
+    starts.extend(
+        code.values()
+            .filter(|i| i.mnemonic == "sei")
+            .map(|i| i.address + i.size),
+    );
+    starts.extend(before.enabled.iter().copied());
+    let mut after = Reach::new(code);
+    after.walk(&starts, false)?;
+    Ok(before
+        .visited
+        .iter()
+        .filter(|a| code.get(a).is_some_and(|i| i.mnemonic == "cli"))
+        .filter(|a| !after.visited.contains(a))
+        .copied()
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -495,5 +673,30 @@ mod tests {
             isr_bounds(&code, 17),
             Err(AnalysisError::UnknownInstruction { .. })
         ));
+    }
+    #[test]
+    fn a_cli_before_the_first_sei_is_boot_only_and_one_after_it_is_not() {
+        let listing = "
+   0:\t0c 94 80 00 \tjmp\t0x100\t; 0x100 <main>
+   4:\t0c 94 a0 00 \tjmp\t0x140\t; 0x140 <__vector_1>
+   8:\t0c 94 b0 00 \tjmp\t0x160\t; 0x160 <__bad_interrupt>
+ 100:\tf8 94       \tcli
+ 102:\t0f be       \tout\t0x3f, r0
+ 104:\t0e 94 90 00 \tcall\t0x120\t; 0x120 <shared>
+ 108:\t78 94       \tsei
+ 10a:\t0e 94 90 00 \tcall\t0x120\t; 0x120 <shared>
+ 10e:\tf8 94       \tcli
+ 110:\t0f be       \tout\t0x3f, r0
+ 112:\tfb cf       \trjmp\t.-10     \t; 0x10a <main+0xa>
+ 120:\tf8 94       \tcli
+ 122:\t0f be       \tout\t0x3f, r0
+ 124:\t08 95       \tret
+ 140:\tf8 94       \tcli
+ 142:\t0f be       \tout\t0x3f, r0
+ 144:\t18 95       \treti
+ 160:\t0c 94 00 00 \tjmp\t0\t; 0x0 <__vectors>
+";
+        let code = parse_objdump(listing);
+        assert_eq!(boot_only_clis(&code), Ok(BTreeSet::from([0x100])));
     }
 }

@@ -7,12 +7,15 @@
 
 use ratf_hil_tests::edge_load::{Phases, run_loaded_trial};
 
-/// Rates per encoder, edges/s, that must be lossless at every phase: the two and
-/// the highest this firmware holds.
-const RATES_HZ: [f64; 3] = [37_777.0, 41_111.0, 43_000.0];
-/// Rates measured and printed, not asserted: the target, which this firmware does
-/// not reach at every phase.
-const MEASURED_RATES_HZ: [f64; 1] = [45_000.0];
+/// Rates per encoder, edges/s, that must be lossless at every phase: the two, its
+/// 45 000 target, and the highest this firmware holds with a margin (47 000 and 47 500 also
+/// held 200 of 200 phases with seed 7; see the firmware's README).
+const RATES_HZ: [f64; 6] = [37_777.0, 41_111.0, 43_000.0, 45_000.0, 46_000.0, 47_000.0];
+/// Rates measured and printed, not asserted: where edges start to be lost. At 48 000 the
+/// jitter allowed is 333 − 320 = 13 cycles, and 4 of 200 phases with seed 7 lose edges;
+/// 50 000 is locked to the 50 kHz sampling (one sample per edge), lossless only at phases
+/// where no late sample meets an edge.
+const MEASURED_RATES_HZ: [f64; 4] = [47_500.0, 48_000.0, 49_000.0, 50_000.0];
 /// Random phases per rate.
 const PHASES: usize = 20;
 /// Edges per encoder per trial: 67–79 ms of edges, four control periods.
@@ -21,7 +24,7 @@ const EDGES: u32 = 3_000;
 const SEED: u64 = 16_005;
 
 #[test]
-fn lossless_at_37_777_41_111_and_43_000_edges_per_second_under_full_host_traffic() {
+fn lossless_at_37_777_41_111_43_000_45_000_46_000_and_47_000_edges_per_second_under_load() {
     println!("seed {SEED}, {PHASES} phases per rate, {EDGES} edges per encoder per trial");
     let mut phases = Phases::new(SEED);
     let mut failures = Vec::new();

@@ -32,12 +32,21 @@
 //! # Time base
 //!
 //! Timer3 interrupts every millisecond (CTC, clk/8, `OCR3A` = 1999). Its handler advances
-//! the clock and folds the encoder bytes into 16-bit control-window deltas
-//! (`crate::encoder_fold`). The encoder interrupt has the higher priority (lower vector)
-//! and the time-base handler is short, so a sample is at most delayed, never lost.
+//! the clock and folds the encoder bytes into 16-bit control-window totals
+//! (`crate::encoder_fold`), with interrupts enabled. The encoder interrupt has the higher
+//! priority (lower vector) and pre-empts it, so a sample is at most delayed, never lost.
+//!
+//! # Hand-over to the main loop, with interrupts on
+//!
+//! The clock and each closed window's totals reach the main loop through a [`SeqCell`]: the
+//! time-base handler writes the value and then bumps a one-byte sequence number; the main
+//! loop reads the sequence number, copies the value, and keeps the copy only if the
+//! sequence number has not moved meanwhile, else reads again. No critical section is
+//! needed, so the hand-over never holds back the encoder interrupt (it used to take the
+//! window out of a `Mutex<RefCell>` with interrupts off for 51 cycles).
 
 use crate::board::{ENCODER_TIMER_TOP, TIME_BASE_TIMER_TOP};
-use crate::encoder_fold::{ControlSample, ENCODERS, Fold};
+use crate::encoder_fold::{ControlSample, ENCODERS, Fold, SampleTaker, WindowTotals};
 use crate::quadrature_tables::{PairTable, TABLE_LEN, pair_table};
 use avr_device::atmega2560::{CPU, TC1, TC3};
 use avr_device::interrupt::{self, Mutex};
@@ -97,8 +106,73 @@ static POSITIONS: IsrBytes<ENCODERS> = IsrBytes::zeroed();
 /// of a pair in the low nibble), written by the encoder interrupt.
 static SKIPS: IsrBytes<{ ENCODERS / 2 }> = IsrBytes::zeroed();
 
-/// The time-base state, shared between the time-base interrupt and the main loop.
+/// The time-base state: used only by the time-base interrupt (and by [`Encoders::start`]
+/// before interrupts are enabled).
 static FOLD: Mutex<RefCell<Fold>> = Mutex::new(RefCell::new(Fold::new([0; 4], [0; 2])));
+
+/// A value written by one interrupt handler and read by the main loop without a critical
+/// section: a sequence lock with a one-byte sequence number (see the module documentation).
+struct SeqCell<T> {
+    sequence: UnsafeCell<u8>,
+    value: UnsafeCell<T>,
+}
+
+// SAFETY: only one interrupt handler writes (`publish`, which cannot nest inside itself and
+// which the main loop cannot interrupt), and only the main loop reads (`read`), which
+// discards any copy that a `publish` may have overlapped (the sequence number moved). All
+// accesses are volatile, so they happen in program order; the MCU has a single core.
+unsafe impl<T: Copy> Sync for SeqCell<T> {}
+
+impl<T: Copy> SeqCell<T> {
+    const fn new(value: T) -> Self {
+        Self {
+            sequence: UnsafeCell::new(0),
+            value: UnsafeCell::new(value),
+        }
+    }
+
+    /// Store `value`. Call only from the one interrupt handler that owns this cell.
+    fn publish(&self, value: T) {
+        // SAFETY: the pointers come from the cells (valid, aligned). Only this handler
+        // writes, and nothing can interrupt it and read meanwhile (the main loop is the only
+        // reader); the value is written before the sequence number moves.
+        unsafe {
+            core::ptr::write_volatile(self.value.get(), value);
+            let sequence = core::ptr::read_volatile(self.sequence.get());
+            core::ptr::write_volatile(self.sequence.get(), sequence.wrapping_add(1));
+        }
+    }
+
+    /// A consistent copy of the value. Call only from the main loop. It reads again when the
+    /// handler published during the copy, which at most once a millisecond can happen.
+    fn read(&self) -> T {
+        loop {
+            // SAFETY: the pointers come from the cells (valid, aligned, `T: Copy`). A
+            // `publish` may interrupt the copy and tear it; then the sequence number read
+            // after the copy differs (the handler bumps it after writing, and 256 publishes
+            // cannot fit into one copy), and the torn copy is discarded.
+            let (before, value, after) = unsafe {
+                let before = core::ptr::read_volatile(self.sequence.get());
+                let value = core::ptr::read_volatile(self.value.get());
+                let after = core::ptr::read_volatile(self.sequence.get());
+                (before, value, after)
+            };
+            if before == after {
+                return value;
+            }
+        }
+    }
+}
+
+/// The latest closed window's totals, from the time-base interrupt to the main loop.
+static WINDOW: SeqCell<WindowTotals> = SeqCell::new(WindowTotals {
+    windows: 0,
+    end_us: 0,
+    counts: [0; ENCODERS],
+    quadrature_errors: [0; ENCODERS],
+});
+/// Time since boot at the latest millisecond, µs (wrapping), from the time-base interrupt.
+static CLOCK_US: SeqCell<u32> = SeqCell::new(0);
 
 /// Timer1 compare A: the encoder interrupt. See the module documentation for the cycle
 /// count; the instruction comments give each one's cycles.
@@ -183,19 +257,20 @@ pub unsafe extern "C" fn __vector_17() {
     );
 }
 
-/// Timer3 compare A (vector 32), every millisecond: advance the clock and fold the encoder
-/// counters. A non-blocking handler: its first instruction is `sei`, so interrupts are off
-/// only for the hardware entry, the vector's `jmp` and that `sei`. The encoder bytes are
-/// then read one at a time with interrupts on: each byte is read whole (one `lds`), and the
-/// fold works on each counter's own change since its previous read, so an encoder interrupt
-/// between two reads only moves that sample's later counters into the next millisecond.
+/// Timer3 compare A (vector 32), every millisecond: advance the clock, fold the encoder
+/// counters and publish the clock and any closed window ([`CLOCK_US`], [`WINDOW`]). A
+/// non-blocking handler: its first instruction is `sei`, so interrupts are off only for the
+/// hardware entry, the vector's `jmp` and that `sei`. The encoder bytes are then read one at
+/// a time with interrupts on: each byte is read whole (one `lds`), and the fold works on
+/// each counter's own change since its previous read, so an encoder interrupt between two
+/// reads only moves that sample's later counters into the next millisecond.
 ///
 /// # Safety
 ///
 /// Only the hardware calls it, as the `TIMER3_COMPA` vector (the hardware clears its flag on
 /// entry). Nothing else touches [`FOLD`] while it runs: the encoder and serial handlers that
 /// may nest inside it do not, it cannot nest inside itself (it runs for far less than its
-/// 1 ms period), and the main loop, the only other user, is suspended until it returns.
+/// 1 ms period), and the main loop only reads the two [`SeqCell`]s this handler writes.
 #[unsafe(no_mangle)]
 pub unsafe extern "avr-non-blocking-interrupt" fn __vector_32() {
     let positions = POSITIONS.read_bytewise();
@@ -203,15 +278,18 @@ pub unsafe extern "avr-non-blocking-interrupt" fn __vector_32() {
     // SAFETY: as above, no other code can access FOLD until this handler returns, which is
     // the exclusivity a critical section would give.
     let cs = unsafe { interrupt::CriticalSection::new() };
-    FOLD.borrow(cs)
-        .borrow_mut()
-        .on_millisecond(positions, skips);
+    let mut fold = FOLD.borrow(cs).borrow_mut();
+    if let Some(totals) = fold.on_millisecond(positions, skips) {
+        WINDOW.publish(totals);
+    }
+    CLOCK_US.publish(fold.now_us());
 }
 
 /// Handle to the running encoder sampling and time base.
 pub struct Encoders {
     _tc1: TC1,
     _tc3: TC3,
+    taker: SampleTaker,
 }
 
 impl Encoders {
@@ -239,17 +317,18 @@ impl Encoders {
         Self {
             _tc1: tc1,
             _tc3: tc3,
+            taker: SampleTaker::new(),
         }
     }
 
-    /// The closed control window's sample, if one closed since the last call (taken with
-    /// interrupts disabled for a few microseconds).
+    /// The sample of the control windows closed since the last call, if any (read with
+    /// interrupts on, see [`SeqCell`]).
     pub fn take_sample(&mut self) -> Option<ControlSample> {
-        interrupt::free(|cs| FOLD.borrow(cs).borrow_mut().take_sample())
+        self.taker.take(&WINDOW.read())
     }
 
-    /// Time since boot, µs (wrapping), with millisecond resolution.
+    /// Time since boot, µs (wrapping), with millisecond resolution (read with interrupts on).
     pub fn now_us(&self) -> u32 {
-        interrupt::free(|cs| FOLD.borrow(cs).borrow().now_us())
+        CLOCK_US.read()
     }
 }

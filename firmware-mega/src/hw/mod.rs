@@ -1,10 +1,12 @@
 //! The hardware layer: the only modules that touch registers, interrupts or `unsafe`.
 //!
 //! Each submodule owns one peripheral and exposes a safe API; the rest of the crate is
-//! plain logic. Interrupt handlers share state with the main loop only inside critical
-//! sections (`interrupt::free`): through `avr_device::interrupt::Mutex`, or for the serial
-//! rings a `CsCell` without a borrow flag ([`usart`]); the exception is the encoder
-//! interrupt, whose few bytes are documented in [`encoders`].
+//! plain logic. Interrupt handlers share state with the main loop without holding
+//! interrupts off for long: the serial rings are single-producer single-consumer rings of
+//! volatile bytes ([`usart`], `crate::ring`), the time base hands the clock and the closed
+//! control windows over through a sequence lock ([`encoders`]), and the encoder interrupt's
+//! few bytes are read one at a time ([`encoders`]). The critical sections left
+//! (`interrupt::free`) are read-modify-writes of `UCSR0B` and the boot's set-up.
 //!
 //! Reserved for the encoder interrupt, never to be used elsewhere: `GPIOR0` (the previous
 //! `PINA` sample), `GPIOR1` and `GPIOR2` (its register save slots).
