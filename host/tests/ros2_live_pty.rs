@@ -1,7 +1,8 @@
-//! `ratf run --ros2` seen by an independent DDS peer: Eclipse Cyclone DDS's Python binding
-//! (`host/tests/python/dds_peer.py`) subscribes with ROS 2 naming, joins `tf_static` late,
-//! drives the robot with `cmd_vel`, and asks for a QoS that cannot match, which `ratf`
-//! must report; against `ratf sim --serve-pty` in real time.
+//! The live ROS 2 bridge seen by an independent DDS peer: Eclipse Cyclone DDS's Python
+//! binding (`host/tests/python/dds_peer.py`) subscribes with ROS 2 naming, joins `tf_static`
+//! late, drives the robot with `cmd_vel`, and asks for a QoS that cannot match, which `ratf`
+//! must report. Once with `ratf run --ros2` against `ratf sim --serve-pty` in real time (the
+//! robot's devices on pseudo-terminals), once with `ratf sim --ros2` (the world in process).
 //!
 //! Needs cargo feature `ros2` and a Python with `cyclonedds` in `RATF_DDS_PYTHON` (CI
 //! makes one); run it inside a private network namespace (`unshare -rn`, `lo` up with
@@ -11,7 +12,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -20,44 +21,24 @@ use common::{Spawned, TempDir, one_at_a_time, read, serve};
 /// The DDS domain of the test (away from the default 0).
 const DOMAIN: &str = "17";
 
-#[test]
-#[ignore = "needs RATF_DDS_PYTHON and a private network namespace: .ci/run runs it with --ignored"]
-fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_drives_it_and_a_qos_mismatch_is_reported()
-{
-    let python = std::env::var("RATF_DDS_PYTHON").unwrap_or_else(|_| {
+/// The Python with `cyclonedds` that CI made.
+fn dds_python() -> String {
+    std::env::var("RATF_DDS_PYTHON").unwrap_or_else(|_| {
         panic!(
             "set RATF_DDS_PYTHON to a Python with the PyPI package cyclonedds 11 \
              (python3 -m venv v && v/bin/pip install cyclonedds==11.0.1), as .ci/run does"
         )
-    });
-    let _serial = one_at_a_time();
-    let tmp = TempDir::new("ros2-live");
-    let dir = &tmp.0;
-    let (_world, port) = serve(dir, "1", &[]);
-    let config = common::robot_config(dir, &dir.join("dev/lidar"), port);
-    let out = dir.join("out");
-    let mut robot = Spawned::start_with_env(
-        &[
-            "run",
-            "--config",
-            config.to_str().expect("utf-8 path"),
-            "--out",
-            out.to_str().expect("utf-8 path"),
-            "--status-hz",
-            "0",
-            "--ros2",
-            "--ros2-namespace",
-            "/robot1",
-            "--ros2-loopback",
-            "--ros2-cmd-vel",
-        ],
-        &[("ROS_DOMAIN_ID", DOMAIN)],
-        &dir.join("run.err"),
-    );
+    })
+}
+
+/// Runs the DDS peer against `ratf` (already started, its stderr in `ratf_err`) under
+/// `namespace`; asserts every check of the peer passed and that `ratf` reported the peer's
+/// QoS mismatch; prints the peer's lines.
+fn peer_checks_the_bridge(robot: &mut Spawned, namespace: &str, dir: &Path, ratf_err: &Path) {
     let peer_log = dir.join("peer.out");
-    let mut peer = Command::new(&python)
+    let mut peer = Command::new(dds_python())
         .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/python/dds_peer.py"))
-        .arg("/robot1")
+        .arg(namespace)
         .env("ROS_DOMAIN_ID", DOMAIN)
         .env(
             "CYCLONEDDS_URI",
@@ -83,20 +64,86 @@ fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_drives_it_and_a_qos_mi
     let log = read(&peer_log);
     assert!(
         status.is_some_and(|s| s.success()) && log.contains(" 0 failed"),
-        "the DDS peer: {status:?}\n{log}\nratf run stderr:\n{}",
-        read(&dir.join("run.err"))
+        "the DDS peer: {status:?}\n{log}\nratf's stderr:\n{}",
+        read(ratf_err)
     );
     // The peer's transient-local reader of the volatile scan: reported on our side.
     let deadline = Instant::now() + Duration::from_secs(10);
-    while !read(&dir.join("run.err")).contains("ROS 2: QoS mismatch with a subscriber")
+    while !read(ratf_err).contains("ROS 2: QoS mismatch with a subscriber")
         && Instant::now() < deadline
     {
         std::thread::sleep(Duration::from_millis(100));
     }
-    let stderr = read(&dir.join("run.err"));
+    let stderr = read(ratf_err);
     assert!(
         stderr.contains("ROS 2: QoS mismatch with a subscriber"),
         "ratf did not report the peer's QoS mismatch; its stderr:\n{stderr}"
     );
     print!("{log}");
+}
+
+/// `path` as the UTF-8 text of a command-line argument.
+fn arg(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
+
+#[test]
+#[ignore = "needs RATF_DDS_PYTHON and a private network namespace: .ci/run runs it with --ignored"]
+fn a_cyclone_dds_peer_sees_the_robot_late_joins_tf_static_drives_it_and_a_qos_mismatch_is_reported()
+{
+    let _serial = one_at_a_time();
+    let tmp = TempDir::new("ros2-live");
+    let dir = &tmp.0;
+    let (_world, port) = serve(dir, "1", &[]);
+    let config = common::robot_config(dir, &dir.join("dev/lidar"), port);
+    let out = dir.join("out");
+    let err: PathBuf = dir.join("run.err");
+    let mut robot = Spawned::start_with_env(
+        &[
+            "run",
+            "--config",
+            arg(&config),
+            "--out",
+            arg(&out),
+            "--status-hz",
+            "0",
+            "--ros2",
+            "--ros2-namespace",
+            "/robot1",
+            "--ros2-loopback",
+            "--ros2-cmd-vel",
+        ],
+        &[("ROS_DOMAIN_ID", DOMAIN)],
+        &err,
+    );
+    peer_checks_the_bridge(&mut robot, "/robot1", dir, &err);
+}
+
+#[test]
+#[ignore = "needs RATF_DDS_PYTHON and a private network namespace: .ci/run runs it with --ignored"]
+fn ratf_sim_ros2_publishes_the_simulated_robot_and_takes_cmd_vel() {
+    let _serial = one_at_a_time();
+    let tmp = TempDir::new("ros2-sim");
+    let dir = &tmp.0;
+    let out = dir.join("out");
+    let err: PathBuf = dir.join("sim.err");
+    // The silent server keeps the mission waiting, so only the peer's cmd_vel moves it.
+    let mut robot = Spawned::start_with_env(
+        &[
+            "sim",
+            "--round",
+            "1",
+            "--silent-server",
+            "--out",
+            arg(&out),
+            "--ros2",
+            "--ros2-namespace",
+            "/sim1",
+            "--ros2-loopback",
+            "--ros2-cmd-vel",
+        ],
+        &[("ROS_DOMAIN_ID", DOMAIN)],
+        &err,
+    );
+    peer_checks_the_bridge(&mut robot, "/sim1", dir, &err);
 }

@@ -192,6 +192,9 @@ enum CalibrateWhat {
     Odometry(ratf_host::apps::calibrate::odometry_cli::OdometryArgs),
 }
 
+/// Where `--hmi` without an address serves the page: this computer only.
+const HMI_LOCAL: &str = "127.0.0.1:8080";
+
 #[derive(Debug, Args)]
 struct RunArgs {
     /// The robot's configuration (no simulator sections; `ratf config --check FILE --robot`).
@@ -207,6 +210,18 @@ struct RunArgs {
     /// Status lines per second (0: none).
     #[arg(long, default_value_t = 4.0)]
     status_hz: f64,
+    #[command(flatten)]
+    ros2: Ros2Args,
+    /// Serve the operator's web page on this address (HOST:PORT, e.g. 0.0.0.0:8080 for the
+    /// robot's Wi-Fi; `--hmi` alone: 127.0.0.1:8080, this computer only); the URL with the
+    /// control token is printed.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = HMI_LOCAL)]
+    hmi: Option<String>,
+}
+
+/// The live ROS 2 bridge's options, the same for `ratf run` and `ratf sim`.
+#[derive(Debug, Args)]
+struct Ros2Args {
     /// Publish the robot live on ROS 2 (DDS domain from ROS_DOMAIN_ID; needs a ratf built
     /// with `--features ros2`).
     #[arg(long)]
@@ -220,10 +235,22 @@ struct RunArgs {
     /// Talk DDS on 127.0.0.1 only.
     #[arg(long, requires = "ros2")]
     ros2_loopback: bool,
-    /// Serve the operator's web page on this address (HOST:PORT, e.g. 0.0.0.0:8080 for the
-    /// robot's Wi-Fi); the URL with the control token is printed.
-    #[arg(long, value_name = "ADDR")]
-    hmi: Option<String>,
+}
+
+impl Ros2Args {
+    /// The bridge's options when `--ros2` was given (the domain read from ROS_DOMAIN_ID).
+    fn options(&self) -> Result<Option<ratf_host::ros2::live::BridgeOptions>, String> {
+        use ratf_host::ros2::live::BridgeOptions;
+        if !self.ros2 {
+            return Ok(None);
+        }
+        Ok(Some(BridgeOptions {
+            namespace: self.ros2_namespace.clone(),
+            domain_id: BridgeOptions::domain_from_env().map_err(|e| e.to_string())?,
+            loopback_only: self.ros2_loopback,
+            cmd_vel: self.ros2_cmd_vel,
+        }))
+    }
 }
 
 #[derive(Debug, Args)]
@@ -267,9 +294,9 @@ struct ReplayArgs {
     /// Print one JSON object with the figures as the last line of stdout.
     #[arg(long)]
     json: bool,
-    /// Serve the operator's web page with a time slider over the recording instead (HOST:PORT,
-    /// e.g. 127.0.0.1:8080); runs until Ctrl-C.
-    #[arg(long, value_name = "ADDR")]
+    /// Serve the operator's web page with a time slider over the recording instead (HOST:PORT;
+    /// `--hmi` alone: 127.0.0.1:8080); runs until Ctrl-C.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = HMI_LOCAL)]
     hmi: Option<String>,
 }
 
@@ -462,10 +489,16 @@ struct SimArgs {
     /// With --serve-pty: give up if nothing opens DIR/mega within this many seconds.
     #[arg(long, default_value_t = 120.0, requires = "serve_pty")]
     wait_for_robot_s: f64,
-    /// Serve the operator's web page on this address (HOST:PORT, e.g. 127.0.0.1:8080); the
-    /// URL with the control token is printed. After the round the page stays up: choose
-    /// another round there, or press Ctrl-C.
-    #[arg(long, value_name = "ADDR", conflicts_with = "serve_pty")]
+    /// Serve the operator's web page on this address (HOST:PORT; `--hmi` alone:
+    /// 127.0.0.1:8080); the URL with the control token is printed. After the round the page
+    /// stays up: choose another round there, or press Ctrl-C.
+    #[arg(
+        long,
+        value_name = "ADDR",
+        num_args = 0..=1,
+        default_missing_value = HMI_LOCAL,
+        conflicts_with = "serve_pty"
+    )]
     hmi: Option<String>,
     /// Run the simulated round at wall-clock speed, so a person can watch it.
     #[arg(long, conflicts_with = "serve_pty")]
@@ -474,6 +507,11 @@ struct SimArgs {
     /// starts the round.
     #[arg(long, conflicts_with = "serve_pty")]
     silent_server: bool,
+    /// The live ROS 2 bridge: with `--ros2` the round runs at wall-clock speed (as with
+    /// `--realtime`) so that rviz2 sees it as it would see the robot. With --serve-pty, give
+    /// these to `ratf run` instead.
+    #[command(flatten)]
+    ros2: Ros2Args,
 }
 
 #[derive(Debug, Args)]
@@ -969,6 +1007,8 @@ fn loc_bench_command(
 struct SimHmi<'a> {
     tap: ratf_host::hmi::tap::HmiTap,
     operator: ratf_host::devices::operator::OperatorReceiver,
+    /// The page's end of `operator`, which the ROS 2 bridge shares when there is one.
+    sender: ratf_host::devices::operator::OperatorSender,
     rounds: &'a ratf_host::hmi::commands::RoundChoice,
 }
 
@@ -1006,12 +1046,13 @@ fn sim_command(args: &SimArgs) -> anyhow::Result<()> {
         let (sender, operator) = operator_channel();
         *slot
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(sender);
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(sender.clone());
         let mut tap = HmiTap::new(hub.clone(), "sim", &config);
         tap.round = Some((round, seed));
         let hmi = SimHmi {
             tap,
             operator,
+            sender,
             rounds: &rounds,
         };
         sim_round(args, round, seed, Some(hmi))?;
@@ -1105,30 +1146,47 @@ fn sim_round(
     };
     let rounds = hmi.as_ref().map(|h| h.rounds);
     let pending = move || rounds.is_some_and(|r| r.pending());
-    let (mut tap, live) = match hmi {
-        Some(SimHmi { tap, operator, .. }) => {
+    let ros2 = args.ros2.options().map_err(anyhow::Error::msg)?;
+    // A live bridge shows the round as rviz2 would see the robot: at wall-clock speed.
+    let speed = (args.realtime || ros2.is_some()).then_some(1.0);
+    let (mut tap, operator, live) = match hmi {
+        Some(SimHmi {
+            tap,
+            operator,
+            sender,
+            ..
+        }) => {
             let abort: &dyn Fn() -> bool = &pending;
             (
                 Some(tap),
+                sender,
                 round::Live {
                     operator: Some(operator),
-                    speed: args.realtime.then_some(1.0),
+                    speed,
                     abort: Some(abort),
                 },
             )
         }
-        None => (
-            None,
-            round::Live {
-                operator: None,
-                speed: args.realtime.then_some(1.0),
-                abort: None,
-            },
-        ),
+        None => {
+            let (sender, operator) = ratf_host::devices::operator::operator_channel();
+            (
+                None,
+                sender,
+                round::Live {
+                    operator: Some(operator),
+                    speed,
+                    abort: None,
+                },
+            )
+        }
     };
+    let mut bridge = ratf_host::ros2::live::live_bridge(&config, ros2.as_ref(), operator)?;
     let mut taps: Vec<&mut dyn ratf_core::runtime::Tap> = Vec::new();
     if let Some(tap) = &mut tap {
         taps.push(tap);
+    }
+    if let Some(bridge) = bridge.as_mut() {
+        taps.push(bridge.as_mut());
     }
     let say = |t_s: f64, text: &str| println!("{t_s:7.2} s  {text}");
     let recording_path = args.out.join(format!("{stem}.mcap"));
@@ -1886,6 +1944,12 @@ fn serve_pty_command(args: &SimArgs) -> anyhow::Result<()> {
     if let Some(world) = args.world {
         config.sim.world = world;
     }
+    if args.ros2.ros2 {
+        anyhow::bail!(
+            "--ros2 with --serve-pty: the bridge belongs to the robot's side, give --ros2 to \
+             `ratf run` instead"
+        );
+    }
     let dir = args.serve_pty.clone().context("--serve-pty DIR")?;
     let options = ServeOptions {
         dir,
@@ -2024,13 +2088,7 @@ fn run_command(args: &RunArgs) -> ! {
         force_start,
         recording: run::default_recording(&args.out),
         status_hz: args.status_hz,
-        ros2: args.ros2.then(|| ratf_host::ros2::live::BridgeOptions {
-            namespace: args.ros2_namespace.clone(),
-            domain_id: ratf_host::ros2::live::BridgeOptions::domain_from_env()
-                .unwrap_or_else(|e| fail(&e.to_string())),
-            loopback_only: args.ros2_loopback,
-            cmd_vel: args.ros2_cmd_vel,
-        }),
+        ros2: args.ros2.options().unwrap_or_else(|e| fail(&e)),
         print_events: true,
     };
     let hmi = args.hmi.as_ref().map(|address| {
@@ -2286,4 +2344,63 @@ fn check_command(args: &CheckArgs) -> ! {
         eprintln!("ratf check: interrupted; the robot was sent zero references and magnet off");
     }
     std::process::exit(report.exit_code());
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `ratf ARGS` as the command line parses them.
+    fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("ratf").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn hmi_alone_serves_on_this_computer_only_and_an_address_is_kept() {
+        let Command::Sim(sim) = parse(&["sim", "--hmi"]).unwrap().command else {
+            panic!("not sim");
+        };
+        assert_eq!(sim.hmi.as_deref(), Some(HMI_LOCAL));
+        let Command::Run(run) = parse(&["run", "--config", "r.toml", "--hmi", "0.0.0.0:9000"])
+            .unwrap()
+            .command
+        else {
+            panic!("not run");
+        };
+        assert_eq!(run.hmi.as_deref(), Some("0.0.0.0:9000"));
+        let Command::Replay(replay) = parse(&["replay", "a.mcap", "--hmi"]).unwrap().command
+        else {
+            panic!("not replay");
+        };
+        assert_eq!(replay.hmi.as_deref(), Some(HMI_LOCAL));
+        let Command::Sim(sim) = parse(&["sim"]).unwrap().command else {
+            panic!("not sim");
+        };
+        assert_eq!(sim.hmi, None, "off by default");
+    }
+
+    #[test]
+    fn sim_and_run_take_the_same_ros2_options_and_they_need_ros2() {
+        for base in [&["sim"][..], &["run", "--config", "r.toml"][..]] {
+            let with = |extra: &[&str]| parse(&[base, extra].concat());
+            assert!(with(&["--ros2-namespace", "/r1"]).is_err(), "{base:?}");
+            assert!(with(&["--ros2-loopback"]).is_err(), "{base:?}");
+            let ros2 = match with(&["--ros2", "--ros2-namespace", "/r1", "--ros2-cmd-vel"])
+                .unwrap()
+                .command
+            {
+                Command::Sim(sim) => sim.ros2,
+                Command::Run(run) => run.ros2,
+                _ => panic!("{base:?}"),
+            };
+            assert!(ros2.ros2 && ros2.ros2_cmd_vel && !ros2.ros2_loopback);
+            assert_eq!(ros2.ros2_namespace, "/r1");
+        }
+    }
 }
