@@ -185,10 +185,10 @@ struct CalibrateArgs {
 
 #[derive(Debug, Subcommand)]
 enum CalibrateWhat {
-    /// The odometry's wheel radius and lx + ly, in the simulator: the lidar calibrated
-    /// first, then a 100 s drive around machine A with four quarter turns in place and the
-    /// loop's left side twice more, each stop's pose fixed from the beacons; `--write FILE`
-    /// sets the `[robot]` keys.
+    /// The odometry's wheel radius and lx + ly from a 100 s drive around machine A with four
+    /// quarter turns in place and the loop's left side twice more, each stop's pose fixed from
+    /// the beacons: in the simulator (the lidar calibrated first), on the robot (`--robot`)
+    /// or from its recording (`--from-recording`); `--write FILE` sets the `[robot]` keys.
     Odometry(ratf_host::apps::calibrate::odometry_cli::OdometryArgs),
 }
 
@@ -1693,7 +1693,12 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
 fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     use ratf_host::apps::calibrate;
     if let Some(CalibrateWhat::Odometry(odometry)) = &args.what {
-        return calibrate::odometry_cli::odometry_command(odometry);
+        let shared = if odometry.robot {
+            quit_on_signals_and_panics("ratf calibrate odometry", 1)
+        } else {
+            ratf_host::devices::Shared::new()
+        };
+        std::process::exit(calibrate::odometry_cli::odometry_command(odometry, &shared));
     }
     if args.robot {
         calibrate_on_robot(args);

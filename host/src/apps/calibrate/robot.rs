@@ -2,15 +2,16 @@
 //! runtime and the same drive as in the simulator ([`super::drive`]), recorded; the fit uses
 //! the tape measures the team took between the poles.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use ratf_core::calibration::{self, Calibration, CalibrationError, Priors, Stop, TapeMeasure};
 use ratf_core::config::Config;
+use ratf_core::field::geometry::Pose2;
 use ratf_core::runtime::Core;
 
 use super::drive::drive_and_collect;
 use crate::apps::run::{RunError, open_devices};
-use crate::apps::scripts::calibration_drive;
+use crate::apps::scripts::{Script, StopWindow, calibration_drive};
 use crate::devices::{DeviceError, Shared};
 use crate::recording::{Recorder, RecordingError, Session};
 
@@ -75,29 +76,49 @@ pub struct RobotCalibration {
     pub recording: PathBuf,
 }
 
-/// Drive the calibration drive on the devices of `config` (the robot placed at the field's
-/// start pose, machine A's surroundings clear) and fit. `shared` carries the quit flag
-/// (wire the signals to it first) and the panic flag; on every way out the robot gets zero
-/// references and magnet off.
-pub fn run_on_robot(
+/// What a drive on the robot brought back.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotDrive {
+    /// The stops, as the fits take them (sightings in the beliefs of the configuration).
+    pub stops: Vec<Stop>,
+    /// The recording of the drive.
+    pub recording: PathBuf,
+}
+
+/// A recorder of a drive's session of `kind` (its configuration `config` and start pose
+/// `start`, world frame) writing to `path`.
+pub fn open_recorder(
     config: &Config,
-    options: &RobotOptions,
-    shared: &Shared,
-) -> Result<RobotCalibration, RobotCalibrateError> {
-    let (script, windows) = calibration_drive();
-    let mut core = Core::new(config, script.start).map_err(RunError::from)?;
+    start: Pose2,
+    kind: &str,
+    path: &Path,
+) -> Result<Recorder, RecordingError> {
     let session = Session {
-        kind: "calibration".to_owned(),
-        config_toml: config.to_toml_string().map_err(|e| {
-            Box::new(RecordingError::Io {
-                path: options.recording.clone(),
-                source: std::io::Error::other(e),
-            })
+        kind: kind.to_owned(),
+        config_toml: config.to_toml_string().map_err(|e| RecordingError::Io {
+            path: path.to_owned(),
+            source: std::io::Error::other(e),
         })?,
-        start_pose: script.start,
+        start_pose: start,
         version: env!("CARGO_PKG_VERSION").to_owned(),
     };
-    let mut recorder = Recorder::create(&options.recording, &session).map_err(Box::new)?;
+    Recorder::create(path, &session)
+}
+
+/// Drive `script` (robot-frame twists, as the operator's `Drive` commands into the core) on
+/// the devices of `config`, recorded to `recording` as a session of `kind`, and collect the
+/// stops of `windows`. `shared` carries the quit flag (wire the signals to it first) and
+/// the panic flag; on every way out the robot gets zero references and magnet off. Never
+/// [`RobotCalibrateError::Fit`]: the caller fits.
+pub fn drive_on_robot(
+    config: &Config,
+    (script, windows): (Script, Vec<StopWindow>),
+    kind: &str,
+    recording: &Path,
+    shared: &Shared,
+) -> Result<RobotDrive, RobotCalibrateError> {
+    let mut core = Core::new(config, script.start).map_err(RunError::from)?;
+    let mut recorder = open_recorder(config, script.start, kind, recording).map_err(Box::new)?;
     let opened = open_devices(config, shared, Vec::new())?;
     let driven = drive_and_collect(
         &mut core,
@@ -114,7 +135,28 @@ pub fn run_on_robot(
     if !driven.finished {
         return Err(RobotCalibrateError::Interrupted);
     }
-    let stops = driven.stops;
+    Ok(RobotDrive {
+        stops: driven.stops,
+        recording,
+    })
+}
+
+/// Drive the calibration drive on the devices of `config` (the robot placed at the field's
+/// start pose, machine A's surroundings clear) and fit. `shared` carries the quit flag
+/// (wire the signals to it first) and the panic flag; on every way out the robot gets zero
+/// references and magnet off.
+pub fn run_on_robot(
+    config: &Config,
+    options: &RobotOptions,
+    shared: &Shared,
+) -> Result<RobotCalibration, RobotCalibrateError> {
+    let RobotDrive { stops, recording } = drive_on_robot(
+        config,
+        calibration_drive(),
+        "calibration",
+        &options.recording,
+        shared,
+    )?;
     let field = config.field.field();
     let mut priors = Priors::from_config(config, &field);
     priors.tape = options.tape.clone();
