@@ -3,8 +3,8 @@
 //! The robot knows only its pose estimate and its switch. While it carries, the mission keeps
 //! the trail of its estimated poses with the switch closed ([`Trail`]); the part left the
 //! magnet at the face of one of the last of them, and lies a few centimetres ahead of it,
-//! square to the robot as it was then (nothing turns a part on the floor but the robot
-//! pushing it). So the search does not creep on from wherever the robot stopped (it may have
+//! about square to the robot as it was then (a part on the floor moves only where the robot
+//! pushes it). So the search does not creep on from wherever the robot stopped (it may have
 //! turned or strafed away from the part meanwhile): it stands until it has stopped, then
 //! takes a few bounded *looks*, each like a docking approach:
 //!
