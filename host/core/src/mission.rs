@@ -16,16 +16,21 @@
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | the part fell off the magnet: look for it (regripping) |
-//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then crept `regrip_reach_m` without finding it: magnet off, skip the action |
+//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held ([`search`]) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
 //! A skipped action is reported to the planner, which re-plans from what it knows.
 
+mod search;
+
 use crate::control::route::SLOT_EXIT_M;
 use crate::field::geometry::Pose2;
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
+use search::{Search, Step, Trail};
+
+pub use search::MAX_LOOKS;
 
 /// One pick-and-place: take the part standing at `pick`, put it at `drop` (slot waypoints).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -94,19 +99,32 @@ pub struct MissionConfig {
     /// lost. 0.1: five of the Mega's telemetry batches (20 ms each), so one bounce of the
     /// switch on a bump is not a loss.
     pub lost_part_debounce_s: f64,
-    /// How long the robot stands, magnet on, before it creeps on to look for a fallen part,
-    /// s. 0.4: from the top speed (0.73 m/s) the default 2 m/s² ramp stops it in 0.37 s; a
-    /// part pushed along by the front face closes the switch meanwhile.
+    /// How long the robot stands, magnet on, before it looks for a fallen part, s. 0.4: from
+    /// the top speed (0.73 m/s) the default 2 m/s² ramp stops it in 0.37 s; a part pushed
+    /// along by the front face closes the switch meanwhile.
     pub regrip_brake_s: f64,
-    /// How far the robot creeps straight on, magnet on, looking for a part that fell off the
-    /// magnet, m. 0.15: reversing out of a slot at 0.3 m/s, the robot covers 4 cm before it
-    /// knows (a telemetry batch and the debounce) and 2 cm braking, and a part that slips
-    /// lands up to 5 cm ahead of the face (assumption): 11 cm, and a margin. Chosen on the
-    /// fault bench's tuning seeds 1–10. A part off to a side is not found by a straight creep.
+    /// How far each look creeps straight on from its start, magnet on, m (the search is
+    /// described in `mission::search`). 0.15: the look starts `regrip_backoff_m` (3 cm)
+    /// behind the pose where the part was last held, a part that slips lands up to 5 cm
+    /// ahead of the face (assumption), and the estimate of that pose is a tick (up to 1 cm)
+    /// late: 9 cm, and a margin for a part the robot pushed on while it braked.
     pub regrip_reach_m: f64,
     /// Speed of that creep, m/s. 0.08: slow enough that the switch (20 mm of travel, read
     /// every 20 ms) closes before the face passes the plate.
     pub regrip_speed_m_s: f64,
+    /// How far behind the pose where the part was last held each look starts, m. 0.03: the
+    /// face must start short of a part that fell right at it (a Mega reset cuts the magnet
+    /// with the plate against its face), with a margin for the estimate.
+    pub regrip_backoff_m: f64,
+    /// Spacing of the looks, m: the second and third look are this far to either side of the
+    /// first, and earlier poses of the trail are looked from where the part they held was
+    /// this far from the previous look's. 0.03: the switch closes on a plate within 2.5 cm
+    /// of the centre line, so looks 3 cm apart leave no gap for a square part. 0: only the
+    /// first look.
+    pub regrip_sweep_m: f64,
+    /// Most looks per search (at most [`MAX_LOOKS`]). Each takes about 3 s (a line-up and a
+    /// 15 cm creep).
+    pub regrip_looks: u32,
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
     /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
@@ -140,6 +158,9 @@ impl Default for MissionConfig {
             regrip_brake_s: 0.4,
             regrip_reach_m: 0.15,
             regrip_speed_m_s: 0.08,
+            regrip_backoff_m: 0.03,
+            regrip_sweep_m: 0.03,
+            regrip_looks: 5,
             exit_on_route_after_pick: false,
             confirm_release: true,
             watch_carried_part: true,
@@ -185,7 +206,7 @@ pub enum MissionEvent {
         slot: WaypointId,
     },
     /// The switch opened while carrying: the part fell off the magnet; the robot stops and
-    /// creeps on to pick it up again.
+    /// looks for it where it was last held, to pick it up again.
     PartSlipped,
     /// The part that fell off is held again; the robot carries on to the drop.
     Regripped,
@@ -211,7 +232,7 @@ pub enum SkipReason {
     Unreachable,
     /// The part stayed on the magnet after release.
     Stuck,
-    /// The part fell off the magnet on the way and was not found straight ahead.
+    /// The part fell off the magnet on the way and was not found where it was last held.
     Dropped,
 }
 
@@ -272,25 +293,12 @@ enum State {
         since_us: u64,
         open_since_us: Option<u64>,
     },
-    /// The part fell off: looking for it.
-    Regripping(Search),
+    /// The part fell off: looking for it (the search is the mission's `search`).
+    Regripping { action: Action },
     /// Magnet off, waiting for the part to settle.
     Releasing { action: Action, since_us: u64 },
     /// Nothing left: stopped.
     Finished,
-}
-
-/// The search for a part that fell off the magnet, magnet on: standing while the robot
-/// brakes, then creeping on from `from` until the switch closes; then holding still for the
-/// grip to settle.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Search {
-    action: Action,
-    /// Where the creep began (`None` while braking).
-    from: Option<Pose2>,
-    since_us: u64,
-    /// Since when the switch is closed again.
-    held_since_us: Option<u64>,
 }
 
 /// Reverse speed kept after the time profile has run out while the estimate still shows
@@ -374,6 +382,10 @@ pub struct Mission<N, A> {
     actions: A,
     state: State,
     solenoid_on: bool,
+    /// Where the part was carried with the switch closed, for a search if it falls off.
+    trail: Trail,
+    /// The search while regripping.
+    search: Option<Search>,
 }
 
 impl<N: Navigator, A: ActionSource> Mission<N, A> {
@@ -385,6 +397,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             actions,
             state: State::Idle,
             solenoid_on: false,
+            trail: Trail::default(),
+            search: None,
         }
     }
 
@@ -495,66 +509,46 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         }
     }
 
+    /// Carry `action`'s part to its drop slot from `pose`.
+    fn carry(&mut self, action: Action, now_us: u64, pose: Pose2) {
+        self.navigator.go_to(now_us, pose, action.drop, false);
+        self.trail.clear();
+        self.state = State::ToDrop {
+            action,
+            since_us: now_us,
+            open_since_us: None,
+        };
+    }
+
     /// One tick of the search for a part that fell off the magnet.
     fn regrip(
         &mut self,
-        search: Search,
+        action: Action,
         now_us: u64,
         pose: Pose2,
         switch: bool,
         events: &mut Vec<MissionEvent>,
     ) -> BodyTwist {
-        let stop = BodyTwist::default();
-        let action = search.action;
-        let lost = |mission: &mut Self, events: &mut Vec<MissionEvent>| {
-            mission.solenoid_on = false;
-            mission.skip(action, SkipReason::Dropped, now_us, events);
+        let step = match self.search.as_mut() {
+            Some(search) => search.tick(now_us, pose, switch, &self.config),
+            None => Step::Lost,
         };
-        if let Some(held_us) = search.held_since_us {
-            if Self::elapsed_s(now_us, held_us) < self.config.grip_settle_s {
-                return stop;
-            }
-            if switch {
+        if !matches!(step, Step::Searching(_)) {
+            self.search = None;
+        }
+        match step {
+            Step::Searching(twist) => twist,
+            Step::Found => {
                 events.push(MissionEvent::Regripped);
-                self.navigator.go_to(now_us, pose, action.drop, false);
-                self.state = State::ToDrop {
-                    action,
-                    since_us: now_us,
-                    open_since_us: None,
-                };
-            } else {
-                lost(self, events);
+                self.carry(action, now_us, pose);
+                BodyTwist::default()
             }
-            return stop;
-        }
-        if switch {
-            self.state = State::Regripping(Search {
-                held_since_us: Some(now_us),
-                ..search
-            });
-            return stop;
-        }
-        let Some(from) = search.from else {
-            if Self::elapsed_s(now_us, search.since_us) >= self.config.regrip_brake_s {
-                self.state = State::Regripping(Search {
-                    from: Some(pose),
-                    since_us: now_us,
-                    ..search
-                });
+            Step::Lost => {
+                self.solenoid_on = false;
+                self.skip(action, SkipReason::Dropped, now_us, events);
+                BodyTwist::default()
             }
-            return stop;
-        };
-        let speed = self.config.regrip_speed_m_s.max(1e-3);
-        // Twice the creep's time: the estimate lags the wheels.
-        let limit_s = 0.5 + 2.0 * self.config.regrip_reach_m / speed;
-        let travelled = from.position().distance(pose.position());
-        if travelled >= self.config.regrip_reach_m
-            || Self::elapsed_s(now_us, search.since_us) > limit_s
-        {
-            lost(self, events);
-            return stop;
         }
-        BodyTwist::new(speed, 0.0, 0.0)
     }
 
     fn advance(
@@ -636,12 +630,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 if switch {
                     events.push(MissionEvent::Picked { slot: action.pick });
                     if self.config.exit_on_route_after_pick {
-                        self.navigator.go_to(now_us, pose, action.drop, false);
-                        self.state = State::ToDrop {
-                            action,
-                            since_us: now_us,
-                            open_since_us: None,
-                        };
+                        self.carry(action, now_us, pose);
                     } else {
                         self.state = State::BackingOut {
                             from: pose,
@@ -675,14 +664,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     return BodyTwist::new(-speed, 0.0, 0.0);
                 }
                 match then {
-                    AfterBackOut::Carry(action) => {
-                        self.navigator.go_to(now_us, pose, action.drop, false);
-                        self.state = State::ToDrop {
-                            action,
-                            since_us: now_us,
-                            open_since_us: None,
-                        };
-                    }
+                    AfterBackOut::Carry(action) => self.carry(action, now_us, pose),
                     AfterBackOut::Retry(action, attempt) => {
                         self.begin(action, attempt, now_us, pose, events);
                     }
@@ -705,16 +687,15 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             } => {
                 let open_since_us = (self.config.watch_carried_part && !switch)
                     .then(|| open_since_us.unwrap_or(now_us));
+                if switch {
+                    self.trail.push(now_us, pose);
+                }
                 if let Some(open_us) = open_since_us
                     && Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s
                 {
                     events.push(MissionEvent::PartSlipped);
-                    self.state = State::Regripping(Search {
-                        action,
-                        from: None,
-                        since_us: open_us,
-                        held_since_us: None,
-                    });
+                    self.search = Some(Search::new(&self.trail, pose, open_us, &self.config));
+                    self.state = State::Regripping { action };
                     return stop;
                 }
                 self.state = State::ToDrop {
@@ -756,7 +737,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     Arrival::Moving => twist,
                 }
             }
-            State::Regripping(search) => self.regrip(search, now_us, pose, switch, events),
+            State::Regripping { action } => self.regrip(action, now_us, pose, switch, events),
             State::Releasing { action, since_us } => {
                 if Self::elapsed_s(now_us, since_us) >= self.config.release_settle_s {
                     self.state = State::BackingOut {
@@ -786,6 +767,8 @@ mod tests {
         failing: bool,
         /// Ticks every drive takes beyond the first five.
         extra_ticks: u32,
+        /// The twist while moving (`None`: 0.3 m/s straight on).
+        moving: Option<BodyTwist>,
     }
 
     impl Navigator for FakeNavigator {
@@ -802,7 +785,8 @@ mod tests {
             }
             if self.ticks_left > 0 {
                 self.ticks_left -= 1;
-                return (BodyTwist::new(0.3, 0.0, 0.0), Arrival::Moving);
+                let twist = self.moving.unwrap_or(BodyTwist::new(0.3, 0.0, 0.0));
+                return (twist, Arrival::Moving);
             }
             if self.dock && switch {
                 (BodyTwist::default(), Arrival::Docked)
@@ -848,22 +832,120 @@ mod tests {
         run_along(mission, |state, magnet, _| switch(state, magnet), ticks)
     }
 
-    /// [`run`] with the robot's x (m) given to the switch too.
+    /// [`run`] with the robot's pose given to the switch too; the robot moves by the
+    /// commanded twist each tick (robot frame, 20 ms).
     fn run_along(
         mission: &mut Mission<FakeNavigator, Script>,
-        mut switch: impl FnMut(&State, bool, f64) -> bool,
+        mut switch: impl FnMut(&State, bool, Pose2) -> bool,
         ticks: u32,
     ) -> Vec<MissionEvent> {
         let mut events = Vec::new();
         let mut pose = Pose2::default();
         for k in 0..ticks {
             let now = u64::from(k) * 20_000;
-            let pressed = switch(&mission.state, mission.solenoid_on, pose.x);
+            let pressed = switch(&mission.state, mission.solenoid_on, pose);
             let out = mission.tick(now, pose, pressed);
-            pose.x += out.twist.vx_m_s * 0.02;
+            pose = moved(pose, out.twist);
             events.extend(out.events);
         }
         events
+    }
+
+    /// `pose` after one 20 ms tick at `twist` (robot frame).
+    fn moved(pose: Pose2, twist: BodyTwist) -> Pose2 {
+        pose.compose(Pose2::new(
+            twist.vx_m_s * 0.02,
+            twist.vy_m_s * 0.02,
+            twist.omega_rad_s * 0.02,
+        ))
+    }
+
+    /// The simulator's switch in miniature: true when the plate (+x face) of a part
+    /// standing at `part` is square in front of a robot at `robot` (30 cm body), within the
+    /// lever's reach, as `ratf_sim::parts::Shop::switch_contact` has it.
+    fn plate_touches(robot: Pose2, part: Pose2) -> bool {
+        use crate::field::PART_DEPTH_M;
+        use crate::field::geometry::{Vec2, wrap_angle};
+        let plate = part.transform_point(Vec2::new(PART_DEPTH_M / 2.0, 0.0));
+        let local = robot.inverse_transform_point(plate);
+        let facing = wrap_angle(part.yaw_rad + std::f64::consts::PI - robot.yaw_rad).abs();
+        (0.145..=0.17).contains(&local.x) && local.y.abs() <= 0.025 && facing <= 15f64.to_radians()
+    }
+
+    /// Where a part the magnet held at `robot` lands when it slips `away_m` off its face:
+    /// the plate against the magnet's face (0.165 m out) moved on by `away_m`, facing back.
+    fn fallen_part(robot: Pose2, away_m: f64) -> Pose2 {
+        use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
+        robot.compose(Pose2::new(
+            PICK_STANDOFF_M + PART_DEPTH_M / 2.0 + away_m,
+            0.0,
+            std::f64::consts::PI,
+        ))
+    }
+
+    /// A carry on which the part slips off the magnet (a miniature of the fault bench's
+    /// slip): the navigator drives at `moving`; on the carry's third tick the part lands
+    /// `away_m` ahead of the magnet's face and stays there; the switch reads the world
+    /// `delay_ticks` late (the Mega's batch and the link); the magnet takes the part up
+    /// again wherever the switch closes on it. Returns the mission, its events, the
+    /// robot's poses while it searched, and where the part fell.
+    fn slip_while(
+        config: MissionConfig,
+        moving: BodyTwist,
+        away_m: f64,
+        delay_ticks: usize,
+    ) -> (
+        Mission<FakeNavigator, Script>,
+        Vec<MissionEvent>,
+        Vec<Pose2>,
+        Option<Pose2>,
+    ) {
+        let mut m = mission(vec![A]);
+        m.config = MissionConfig {
+            exit_on_route_after_pick: true,
+            ..config
+        };
+        m.navigator.extra_ticks = 40;
+        m.navigator.moving = Some(moving);
+        let mut carry_ticks = 0;
+        let mut part: Option<Pose2> = None;
+        let mut regripped = false;
+        let mut readings = std::collections::VecDeque::new();
+        let mut searched = Vec::new();
+        let events = run_along(
+            &mut m,
+            |state, magnet, pose| {
+                let truth = match state {
+                    State::ToPick { .. } | State::Gripping { .. } => true,
+                    _ if regripped => magnet,
+                    State::ToDrop { .. } if part.is_none() => {
+                        carry_ticks += 1;
+                        if carry_ticks >= 3 {
+                            part = Some(fallen_part(pose, away_m));
+                            false
+                        } else {
+                            magnet
+                        }
+                    }
+                    _ => {
+                        let touches = part.is_some_and(|p| plate_touches(pose, p));
+                        regripped |= touches && magnet;
+                        touches
+                    }
+                };
+                if matches!(state, State::Regripping { .. }) {
+                    searched.push(pose);
+                }
+                readings.push_back(truth);
+                if readings.len() > delay_ticks {
+                    readings.pop_front().unwrap_or(truth)
+                } else {
+                    true
+                }
+            },
+            1500,
+        );
+        (m, events, searched, part)
     }
 
     /// A mission (ours, or `config`) whose carry to the drop lasts 25 ticks, and a switch
@@ -885,7 +967,7 @@ mod tests {
         let mut search_from: Option<f64> = None;
         let events = run_along(
             &mut m,
-            |state, magnet, x| match state {
+            |state, magnet, pose| match state {
                 State::ToPick { .. } | State::Gripping { .. } => true,
                 // Picked up again: held to the drop.
                 State::ToDrop { .. } if search_from.is_some() => magnet,
@@ -894,9 +976,9 @@ mod tests {
                     let fell = carry_ticks >= 3 && bounce_ticks.is_none_or(|n| carry_ticks < 3 + n);
                     magnet && !fell
                 }
-                State::Regripping(_) => {
-                    let from = *search_from.get_or_insert(x);
-                    magnet && found_ahead_m.is_some_and(|d| x - from >= d)
+                State::Regripping { .. } => {
+                    let from = *search_from.get_or_insert(pose.x);
+                    magnet && found_ahead_m.is_some_and(|d| pose.x - from >= d)
                 }
                 _ => false,
             },
@@ -1072,31 +1154,45 @@ mod tests {
     }
 
     #[test]
-    fn a_part_that_fell_off_and_is_not_ahead_is_given_up_with_the_magnet_off_after_a_bounded_creep()
-    {
+    fn a_part_that_fell_off_and_is_nowhere_is_given_up_with_the_magnet_off_after_bounded_looks() {
         let config = MissionConfig::default();
         let mut m = mission(vec![A]);
         m.config.exit_on_route_after_pick = true;
-        m.navigator.extra_ticks = 20;
-        let mut crept_m = 0.0;
+        // A carry of 20 ticks before the slip: a trail long enough for every look.
+        m.navigator.extra_ticks = 40;
         let mut carry_ticks = 0;
+        let mut lost_at: Option<Pose2> = None;
+        let mut searched: Vec<Pose2> = Vec::new();
+        let mut crept_per_look: Vec<f64> = Vec::new();
         let mut pose = Pose2::default();
         let mut events = Vec::new();
-        for k in 0..300u64 {
+        for k in 0..3000u64 {
             let pressed = match m.state {
                 State::ToPick { .. } | State::Gripping { .. } => true,
                 State::ToDrop { .. } => {
                     carry_ticks += 1;
-                    carry_ticks < 3
+                    if carry_ticks >= 20 {
+                        lost_at.get_or_insert(pose);
+                    }
+                    carry_ticks < 20
                 }
                 _ => false,
             };
-            let searching = matches!(m.state, State::Regripping(_));
+            let searching = matches!(m.state, State::Regripping { .. });
             let out = m.tick(k * 20_000, pose, pressed);
             if searching {
-                crept_m += out.twist.vx_m_s * 0.02;
+                searched.push(pose);
+                // Forward in a straight line with no turn: a creep (the line-ups turn and
+                // strafe); a new creep after a line-up starts a new count.
+                let creeping = out.twist.vx_m_s > 0.0 && out.twist.omega_rad_s.abs() < 1e-9;
+                match (creeping, crept_per_look.last_mut()) {
+                    (true, Some(d)) if *d >= 0.0 => *d += out.twist.vx_m_s * 0.02,
+                    (true, _) => crept_per_look.push(out.twist.vx_m_s * 0.02),
+                    (false, Some(d)) if *d >= 0.0 => crept_per_look.push(-1.0),
+                    _ => {}
+                }
             }
-            pose.x += out.twist.vx_m_s * 0.02;
+            pose = moved(pose, out.twist);
             events.extend(out.events);
         }
         assert_eq!(
@@ -1115,10 +1211,107 @@ mod tests {
             !m.solenoid_on,
             "the magnet goes off once the part is given up"
         );
-        assert!(crept_m > 0.0, "it looked for the part");
+        let creeps: Vec<f64> = crept_per_look.into_iter().filter(|&d| d >= 0.0).collect();
+        assert_eq!(creeps.len(), config.regrip_looks as usize, "{creeps:?}");
+        for crept in creeps {
+            assert!(
+                crept <= config.regrip_reach_m + config.regrip_speed_m_s * 0.02 + 1e-9,
+                "each creep is bounded: {crept} m"
+            );
+        }
+        // It stays near where the part was lost: at most the reach on from a look's start,
+        // which is the backoff behind and the sweep beside a pose it carried the part at.
+        let lost_at = lost_at.unwrap_or_default();
+        let bound = config.regrip_reach_m + config.regrip_backoff_m + config.regrip_sweep_m + 0.02;
+        for p in &searched {
+            assert!(
+                p.position().distance(lost_at.position()) <= bound,
+                "{p:?} strayed from {lost_at:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_part_that_falls_while_the_robot_turns_away_is_found_where_it_was_held() {
+        // Turning at 2.5 rad/s, the switch read 60 ms late: the robot has turned 9° on
+        // before it knows, and ~0.2 rad before it stands; a creep straight on from there
+        // passes 4 cm beside the part.
+        let turning = BodyTwist::new(0.1, 0.0, 2.5);
+        let (m, events, searched, part) = slip_while(MissionConfig::default(), turning, 0.03, 3);
+        assert!(events.contains(&MissionEvent::PartSlipped), "{events:?}");
+        assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        // It turned back to the heading it held the part at.
+        let turned_back = searched
+            .windows(2)
+            .any(|w| w[1].yaw_rad < w[0].yaw_rad - 1e-6);
+        assert!(turned_back);
+        // A creep straight on from where it stopped (the search before the looks) would
+        // have passed beside the part.
+        let (stopped, part) = (searched[0], part.unwrap_or_default());
+        let found_straight_on = (0..=150)
+            .map(|mm| stopped.compose(Pose2::new(f64::from(mm) * 1e-3, 0.0, 0.0)))
+            .any(|p| plate_touches(p, part));
+        assert!(!found_straight_on, "{stopped:?} {part:?}");
+    }
+
+    #[test]
+    fn a_part_lost_while_the_switch_still_read_closed_is_found_by_a_later_look() {
+        // Strafing at 0.4 m/s with the switch read 120 ms late (a Mega reset's stale
+        // reading, shortened): the last pose with the switch closed is 5 cm beside the
+        // part's line. The first look misses it; a look to the side or back along the
+        // trail finds it.
+        let strafing = BodyTwist::new(0.0, 0.4, 0.0);
+        let (m, events, _, _) = slip_while(MissionConfig::default(), strafing, 0.02, 6);
+        assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        let one_look = MissionConfig {
+            regrip_looks: 1,
+            ..MissionConfig::default()
+        };
+        let (m, events, _, _) = slip_while(one_look, strafing, 0.02, 6);
+        assert!(!events.contains(&MissionEvent::Regripped), "{events:?}");
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+    }
+
+    #[test]
+    fn a_blocked_creep_ends_its_look_early() {
+        // The robot cannot move (against a wall): each look's creep ends after the stall
+        // time, not the creep's own limit, so the search is over in a few seconds.
+        let config = MissionConfig::default();
+        let mut m = mission(vec![A]);
+        m.config.exit_on_route_after_pick = true;
+        m.navigator.extra_ticks = 20;
+        let mut carry_ticks = 0;
+        let mut slipped_at: Option<u64> = None;
+        let mut given_up_at: Option<u64> = None;
+        for k in 0..3000u64 {
+            let now = k * 20_000;
+            let pressed = match m.state {
+                State::ToPick { .. } | State::Gripping { .. } => true,
+                State::ToDrop { .. } => {
+                    carry_ticks += 1;
+                    carry_ticks < 3
+                }
+                _ => false,
+            };
+            let out = m.tick(now, Pose2::default(), pressed);
+            for event in out.events {
+                match event {
+                    MissionEvent::PartSlipped => slipped_at = Some(now),
+                    MissionEvent::Skipped { .. } => given_up_at = Some(now),
+                    _ => {}
+                }
+            }
+        }
+        let took_s = given_up_at
+            .zip(slipped_at)
+            .map(|(g, s)| (g - s) as f64 * 1e-6);
+        let creep_limit_s = 0.5 + 2.0 * config.regrip_reach_m / config.regrip_speed_m_s;
+        let looks = f64::from(config.regrip_looks);
         assert!(
-            crept_m <= config.regrip_reach_m + config.regrip_speed_m_s * 0.02 + 1e-9,
-            "the creep is bounded: {crept_m} m"
+            took_s.is_some_and(|t| t < looks * creep_limit_s / 2.0),
+            "{took_s:?} s"
         );
     }
 

@@ -226,6 +226,30 @@ impl MissionConfig {
             "a part further than a body length away was not lost at the face",
         );
         c.within(
+            "regrip_backoff_m",
+            self.regrip_backoff_m,
+            0.0,
+            0.15,
+            "m",
+            "a look starts near where the part was last held: half a body length behind it at most",
+        );
+        c.within(
+            "regrip_sweep_m",
+            self.regrip_sweep_m,
+            0.0,
+            0.1,
+            "m",
+            "looks further apart than the 8 cm plate leave parts between them unseen",
+        );
+        c.within_int(
+            "regrip_looks",
+            self.regrip_looks,
+            1,
+            crate::mission::MAX_LOOKS as i128,
+            "",
+            "each look takes about 3 s; the search keeps at most this many",
+        );
+        c.within(
             "regrip_speed_m_s",
             self.regrip_speed_m_s,
             0.01,
@@ -241,5 +265,43 @@ impl MissionConfig {
             "",
             "ten approaches of one action fill the slot",
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::config::{Config, ConfigError};
+
+    /// The issues of `text`, as printed; empty when it is accepted.
+    fn issues(text: &str) -> Vec<String> {
+        match Config::from_toml_str(text) {
+            Ok(_) => Vec::new(),
+            Err(ConfigError::Invalid { issues, .. }) => {
+                issues.iter().map(ToString::to_string).collect()
+            }
+            Err(other) => vec![other.to_string()],
+        }
+    }
+
+    #[test]
+    fn the_search_keys_are_read_and_bounded() {
+        let config = Config::from_toml_str(
+            "[mission]\nregrip_backoff_m = 0.05\nregrip_sweep_m = 0.0\nregrip_looks = 1\n",
+        )
+        .expect("within bounds");
+        assert_eq!(config.mission.regrip_backoff_m, 0.05);
+        assert_eq!(config.mission.regrip_sweep_m, 0.0);
+        assert_eq!(config.mission.regrip_looks, 1);
+        for (text, key) in [
+            ("regrip_backoff_m = 0.5", "mission.regrip_backoff_m"),
+            ("regrip_backoff_m = -0.01", "mission.regrip_backoff_m"),
+            ("regrip_sweep_m = 0.2", "mission.regrip_sweep_m"),
+            ("regrip_looks = 0", "mission.regrip_looks"),
+            ("regrip_looks = 9", "mission.regrip_looks"),
+        ] {
+            let found = issues(&format!("[mission]\n{text}\n"));
+            assert_eq!(found.len(), 1, "{text}: {found:?}");
+            assert!(found[0].starts_with(key), "{text}: {}", found[0]);
+        }
     }
 }

@@ -217,7 +217,7 @@ impl Event {
                 format!("placed {} on {}", color_word(*color), slot(at))
             }
             Self::PartSlipped { color } => format!(
-                "the {} part fell off the magnet: stopped, creeping on to pick it up again",
+                "the {} part fell off the magnet: stopped, looking for it where it was last held",
                 color_word(*color)
             ),
             Self::Regripped { color } => {
@@ -229,7 +229,9 @@ impl Event {
                     SkipReason::NotHeld => "the magnet did not hold it",
                     SkipReason::Unreachable => "no way there in time",
                     SkipReason::Stuck => "it stayed on the magnet",
-                    SkipReason::Dropped => "it fell off the magnet and was not found ahead",
+                    SkipReason::Dropped => {
+                        "it fell off the magnet and was not found where it was last held"
+                    }
                 };
                 format!(
                     "gave up the part at {} for {}: {why}",

@@ -1,0 +1,354 @@
+//! The search for a part that fell off the magnet while it was carried (issue 17).
+//!
+//! The robot knows only its pose estimate and its switch. While it carries, the mission keeps
+//! the trail of its estimated poses with the switch closed ([`Trail`]); the part left the
+//! magnet at the face of one of the last of them, and lies a few centimetres ahead of it,
+//! about square to the robot as it was then (a part on the floor moves only where the robot
+//! pushes it). So the search does not creep on from wherever the robot stopped (it may have
+//! turned or strafed away from the part meanwhile): it stands until it has stopped, then
+//! takes a few bounded *looks*, each like a docking approach:
+//!
+//! 1. line up: drive (holonomic, slowly) to a pose `regrip_backoff_m` behind the look's
+//!    anchor, with the anchor's heading;
+//! 2. creep straight on along that heading, up to `regrip_reach_m`, until the switch closes.
+//!
+//! The looks, in order: the anchor is the last pose at which the part was known held, then
+//! the same line moved `regrip_sweep_m` to one side and to the other (the part lands up to
+//! 2 cm off the centre line, and a robot turning away sweeps it sideways with a front
+//! corner: first the side the robot was turning to), then earlier poses of the trail, each
+//! whose part centre is `regrip_sweep_m` from the previous anchor's (after a Mega reset the
+//! switch is read again only once the Mega is back, 0.5 s later: the part fell off where the
+//! robot was when the Mega went silent, before it coasted to a stop). At most
+//! `regrip_looks` looks; when the switch closes the robot stands for the grip to settle.
+//!
+//! Collisions: every look starts a few centimetres from poses the robot stood at moments
+//! before with its heading (`regrip_backoff_m` behind, `regrip_sweep_m` to a side), and the
+//! creep covers where the part was carried, so the search drives only where the robot and
+//! its part have just been, give or take those few centimetres; it never plans across the
+//! floor.
+
+use std::collections::VecDeque;
+
+use super::MissionConfig;
+use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
+use crate::kinematics::BodyTwist;
+
+/// Most looks one search may take (the upper bound of `regrip_looks`).
+pub const MAX_LOOKS: usize = 8;
+
+/// From the robot's centre to the centre of a part the magnet holds, m (the part stands
+/// against the magnet's face, which is where it is at a slot's pick pose).
+const PART_AHEAD_M: f64 = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
+
+/// How long the trail of carried poses reaches back, s: 1.0, the Mega's 0.5 s reset, the
+/// 0.1 s debounce after it, its coast to a stop, and a margin.
+const TRAIL_S: f64 = 1.0;
+
+/// Top speed while lining up for a look, m/s. 0.15: twice the creep; the line-up spans a
+/// few centimetres to a decimetre, so it takes about a second.
+const LINE_UP_SPEED_M_S: f64 = 0.15;
+/// Top turn rate while lining up, rad/s. 1.0: the front face (0.2 m out) then moves at
+/// 0.2 m/s, near the line-up speed.
+const LINE_UP_TURN_RAD_S: f64 = 1.0;
+/// Gain of the line-up and of the creep's hold on its line, 1/s. 2.0: a time constant of
+/// 0.5 s, five times the estimate's 0.1 s lag, so the loop does not ring.
+const GAIN_PER_S: f64 = 2.0;
+/// The robot is lined up within this distance of the look's start, m: 1 cm, well inside the
+/// switch's ±2.5 cm across the plate.
+const LINE_UP_TOLERANCE_M: f64 = 0.01;
+/// The robot is lined up within this heading error, rad: 2°, well inside the switch's 15°.
+const LINE_UP_TOLERANCE_RAD: f64 = 0.035;
+/// A creep that has not got [`STALL_PROGRESS_M`] further for this long is blocked (a wall,
+/// a divider, a part wedged against one) and the look ends, s. 0.6: the creep covers 5 cm
+/// in that time, and the estimate lags the wheels by 0.1 s.
+const STALL_S: f64 = 0.6;
+/// Progress that counts against [`STALL_S`], m: 5 mm, above the estimate's jitter.
+const STALL_PROGRESS_M: f64 = 0.005;
+
+/// The poses at which the robot last carried its part with the switch closed, oldest first,
+/// over the last [`TRAIL_S`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(super) struct Trail {
+    poses: VecDeque<(u64, Pose2)>,
+}
+
+impl Trail {
+    /// Forget the trail (a new carry begins).
+    pub(super) fn clear(&mut self) {
+        self.poses.clear();
+    }
+
+    /// The robot carried its part at `pose` at `now_us`, the switch closed.
+    pub(super) fn push(&mut self, now_us: u64, pose: Pose2) {
+        self.poses.push_back((now_us, pose));
+        let horizon_us = (TRAIL_S * 1e6) as u64;
+        while self
+            .poses
+            .front()
+            .is_some_and(|&(t, _)| t + horizon_us < now_us)
+        {
+            self.poses.pop_front();
+        }
+    }
+}
+
+/// Where the search is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// Standing, magnet on, while the robot stops.
+    Braking,
+    /// Driving to the start of look `look`, for at most until `limit_us`.
+    LiningUp { limit_us: u64 },
+    /// Creeping along look `look`; the farthest it got along it so far, m, and when, µs.
+    Creeping { best_m: f64, best_us: u64 },
+    /// The switch closed: standing for the grip to settle.
+    Holding,
+}
+
+/// How a search tick went.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Step {
+    /// Still looking: command this twist.
+    Searching(BodyTwist),
+    /// The part is held again.
+    Found,
+    /// Every look is done and the part was not found, or it did not hold.
+    Lost,
+}
+
+/// The search: see the module documentation.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Search {
+    /// The looks' start poses (the creep runs along each one's heading), at most
+    /// [`MAX_LOOKS`].
+    looks: Vec<Pose2>,
+    /// The current look.
+    look: usize,
+    phase: Phase,
+    /// When the phase began, µs.
+    since_us: u64,
+}
+
+impl Search {
+    /// A search that begins braking at `since_us`, the robot now at `pose`, for a part last
+    /// known held along `trail`.
+    pub(super) fn new(trail: &Trail, pose: Pose2, since_us: u64, config: &MissionConfig) -> Self {
+        let mut looks = Vec::with_capacity(MAX_LOOKS);
+        let wanted = (config.regrip_looks as usize).clamp(1, MAX_LOOKS);
+        let backoff = |anchor: Pose2, across_m: f64| {
+            anchor.compose(Pose2::new(-config.regrip_backoff_m, across_m, 0.0))
+        };
+        let mut add = |look: Pose2| {
+            if looks.len() < wanted {
+                looks.push(look);
+            }
+        };
+        let anchor = trail.poses.back().map_or(pose, |&(_, p)| p);
+        add(backoff(anchor, 0.0));
+        let sweep = config.regrip_sweep_m;
+        if sweep > 0.0 {
+            // A robot turning to its left sweeps the part to the left with its right corner.
+            let side = if wrap_angle(pose.yaw_rad - anchor.yaw_rad) >= 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            add(backoff(anchor, side * sweep));
+            add(backoff(anchor, -side * sweep));
+            let part = |p: Pose2| p.transform_point(Vec2::new(PART_AHEAD_M, 0.0));
+            let mut last = part(anchor);
+            for &(_, earlier) in trail.poses.iter().rev() {
+                if part(earlier).distance(last) >= sweep {
+                    last = part(earlier);
+                    add(backoff(earlier, 0.0));
+                }
+            }
+        }
+        Self {
+            looks,
+            look: 0,
+            phase: Phase::Braking,
+            since_us,
+        }
+    }
+
+    /// The looks' start poses, in the order they are taken.
+    #[cfg(test)]
+    pub(super) fn looks(&self) -> &[Pose2] {
+        &self.looks
+    }
+
+    /// One tick at `now_us` with the pose estimate and the switch.
+    pub(super) fn tick(
+        &mut self,
+        now_us: u64,
+        pose: Pose2,
+        switch: bool,
+        config: &MissionConfig,
+    ) -> Step {
+        let stop = Step::Searching(BodyTwist::default());
+        let elapsed_s = now_us.saturating_sub(self.since_us) as f64 * 1e-6;
+        if self.phase == Phase::Holding {
+            return if elapsed_s < config.grip_settle_s {
+                stop
+            } else if switch {
+                Step::Found
+            } else {
+                Step::Lost
+            };
+        }
+        if switch {
+            self.enter(Phase::Holding, now_us);
+            return stop;
+        }
+        match self.phase {
+            Phase::Braking => {
+                if elapsed_s >= config.regrip_brake_s {
+                    self.line_up(now_us, pose);
+                }
+                stop
+            }
+            Phase::LiningUp { limit_us } => {
+                let target = self.looks[self.look];
+                let error = target.position() - pose.position();
+                let yaw_error = wrap_angle(target.yaw_rad - pose.yaw_rad);
+                let lined_up =
+                    error.norm() <= LINE_UP_TOLERANCE_M && yaw_error.abs() <= LINE_UP_TOLERANCE_RAD;
+                if lined_up || now_us >= limit_us {
+                    let best_m = 0.0;
+                    self.enter(
+                        Phase::Creeping {
+                            best_m,
+                            best_us: now_us,
+                        },
+                        now_us,
+                    );
+                    return stop;
+                }
+                let velocity = clamp_norm(error * GAIN_PER_S, LINE_UP_SPEED_M_S);
+                let omega = (GAIN_PER_S * yaw_error).clamp(-LINE_UP_TURN_RAD_S, LINE_UP_TURN_RAD_S);
+                Step::Searching(body_twist(velocity, omega, pose.yaw_rad))
+            }
+            Phase::Creeping { best_m, best_us } => {
+                let start = self.looks[self.look];
+                let along_unit = Vec2::from_angle(start.yaw_rad);
+                let across_unit = Vec2::new(-along_unit.y, along_unit.x);
+                let offset = pose.position() - start.position();
+                let along = offset.dot(along_unit);
+                let across = offset.dot(across_unit);
+                let speed = config.regrip_speed_m_s.max(1e-3);
+                // Twice the creep's time: the estimate lags the wheels.
+                let limit_s = 0.5 + 2.0 * config.regrip_reach_m / speed;
+                let (best_m, best_us) = if along >= best_m + STALL_PROGRESS_M {
+                    (along, now_us)
+                } else {
+                    (best_m, best_us)
+                };
+                self.phase = Phase::Creeping { best_m, best_us };
+                let stalled = now_us.saturating_sub(best_us) as f64 * 1e-6 > STALL_S;
+                if along >= config.regrip_reach_m || elapsed_s > limit_s || stalled {
+                    self.look += 1;
+                    if self.look >= self.looks.len() {
+                        return Step::Lost;
+                    }
+                    self.line_up(now_us, pose);
+                    return stop;
+                }
+                let hold = (-GAIN_PER_S * across).clamp(-speed, speed);
+                let velocity = along_unit * speed + across_unit * hold;
+                let yaw_error = wrap_angle(start.yaw_rad - pose.yaw_rad);
+                let omega = (GAIN_PER_S * yaw_error).clamp(-LINE_UP_TURN_RAD_S, LINE_UP_TURN_RAD_S);
+                Step::Searching(body_twist(velocity, omega, pose.yaw_rad))
+            }
+            Phase::Holding => stop,
+        }
+    }
+
+    fn enter(&mut self, phase: Phase, now_us: u64) {
+        self.phase = phase;
+        self.since_us = now_us;
+    }
+
+    /// Begin lining up for the current look from `pose`, with a time limit of three times
+    /// what the line-up takes at its top speeds, and half a second.
+    fn line_up(&mut self, now_us: u64, pose: Pose2) {
+        let target = self.looks[self.look];
+        let travel_s = target.position().distance(pose.position()) / LINE_UP_SPEED_M_S
+            + wrap_angle(target.yaw_rad - pose.yaw_rad).abs() / LINE_UP_TURN_RAD_S;
+        let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
+        self.enter(Phase::LiningUp { limit_us }, now_us);
+    }
+}
+
+/// `v` shortened to at most `max` long.
+fn clamp_norm(v: Vec2, max: f64) -> Vec2 {
+    let norm = v.norm();
+    if norm > max { v * (max / norm) } else { v }
+}
+
+/// The body twist for a world-frame velocity and a turn rate, the robot heading `yaw_rad`.
+fn body_twist(world: Vec2, omega_rad_s: f64, yaw_rad: f64) -> BodyTwist {
+    let body = world.rotated(-yaw_rad);
+    BodyTwist::new(body.x, body.y, omega_rad_s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A trail of `n` poses 1 cm apart along +x, heading +x, one per 20 ms tick.
+    fn straight_trail(n: u32) -> Trail {
+        let mut trail = Trail::default();
+        for k in 0..n {
+            trail.push(
+                u64::from(k) * 20_000,
+                Pose2::new(f64::from(k) * 0.01, 0.0, 0.0),
+            );
+        }
+        trail
+    }
+
+    #[test]
+    fn the_looks_start_behind_the_last_held_pose_then_beside_it_then_back_along_the_trail() {
+        let config = MissionConfig::default();
+        let trail = straight_trail(20);
+        // Stopped turned to the right of the last held heading: the right side comes first.
+        let stopped = Pose2::new(0.2, 0.0, -0.1);
+        let search = Search::new(&trail, stopped, 400_000, &config);
+        let looks = search.looks();
+        assert_eq!(looks.len(), config.regrip_looks as usize);
+        let near = |a: Pose2, x: f64, y: f64| {
+            (a.x - x).abs() < 1e-9 && (a.y - y).abs() < 1e-9 && a.yaw_rad == 0.0
+        };
+        let back = config.regrip_backoff_m;
+        let sweep = config.regrip_sweep_m;
+        assert!(near(looks[0], 0.19 - back, 0.0), "{looks:?}");
+        assert!(near(looks[1], 0.19 - back, -sweep), "{looks:?}");
+        assert!(near(looks[2], 0.19 - back, sweep), "{looks:?}");
+        // Then earlier poses of the trail, each holding its part at least a sweep (3 cm)
+        // behind the previous look's, and within a trail step (1 cm) of that.
+        for (later, earlier) in [(looks[0], looks[3]), (looks[3], looks[4])] {
+            let gap = later.x - earlier.x;
+            assert!(gap > sweep - 1e-9 && gap < sweep + 0.01 + 1e-9, "{looks:?}");
+            assert!(earlier.y == 0.0 && earlier.yaw_rad == 0.0, "{looks:?}");
+        }
+    }
+
+    #[test]
+    fn the_trail_keeps_the_last_second() {
+        let trail = straight_trail(100);
+        let oldest = trail.poses.front().map(|&(t, _)| t);
+        assert_eq!(oldest, Some(99 * 20_000 - 1_000_000));
+    }
+
+    #[test]
+    fn without_a_sweep_there_is_one_look() {
+        let config = MissionConfig {
+            regrip_sweep_m: 0.0,
+            ..MissionConfig::default()
+        };
+        let search = Search::new(&straight_trail(20), Pose2::default(), 0, &config);
+        assert_eq!(search.looks().len(), 1);
+    }
+}

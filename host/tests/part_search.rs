@@ -1,0 +1,28 @@
+//! The part search (`ratf_core::mission::search`) in the simulated world, on the fault bench's
+//! tuning seed 4: in round 1 the part leaves the magnet (a slip, or a Mega reset that cuts its
+//! current) at 15.2 s, on the way from incoming slot 2, as the robot turns at 1.3 rad/s. A creep
+//! straight on from where the robot stopped passed 7 cm beside the part, gave it up and then
+//! pushed against it on the next legs (2 points of 4); looking where the part was last held
+//! finds it. Realistic world, each robot calibrated first, as `ratf bench faults --seeds 1
+//! --first-seed 4 --calibrated --only part_slip,mega_reset` runs it.
+
+use ratf_core::config::{Config, WorldProfile};
+use ratf_host::apps::fault_bench::{Injection, bench};
+use ratf_sim::faults::FaultKind;
+
+#[test]
+fn a_part_lost_while_the_robot_turns_is_found_and_every_round_of_seed_4_scores_fully() {
+    let mut config = Config::default();
+    config.sim.world = WorldProfile::Realistic;
+    let injections = [
+        Injection::One(FaultKind::PartSlip),
+        Injection::One(FaultKind::MegaReset),
+    ];
+    let result = bench(&config, 4..=4, &injections, true, |_| {}).expect("the bench runs");
+    assert_eq!(result.fault_free_full_score_rate, 1.0);
+    for row in &result.rows {
+        assert_eq!(row.injected, 3, "{row:?}");
+        assert_eq!(row.full_score_rate_by_round, [1.0; 3], "{row:?}");
+        assert_eq!(row.given_up, 0, "{row:?}");
+    }
+}
