@@ -2379,8 +2379,7 @@ mod tests {
             panic!("not run");
         };
         assert_eq!(run.hmi.as_deref(), Some("0.0.0.0:9000"));
-        let Command::Replay(replay) = parse(&["replay", "a.mcap", "--hmi"]).unwrap().command
-        else {
+        let Command::Replay(replay) = parse(&["replay", "a.mcap", "--hmi"]).unwrap().command else {
             panic!("not replay");
         };
         assert_eq!(replay.hmi.as_deref(), Some(HMI_LOCAL));

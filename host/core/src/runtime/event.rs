@@ -48,7 +48,7 @@ pub enum Event {
         color: Option<PartColor>,
     },
     /// The switch opened while carrying: the part fell off the magnet; the robot stops and
-    /// creeps on to pick it up again.
+    /// looks for it where it was last held (`mission::search`).
     PartSlipped {
         /// Its colour as the planner knows it.
         color: Option<PartColor>,
