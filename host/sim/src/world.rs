@@ -399,6 +399,16 @@ impl World {
         self.grip = grip.clamp(0.0, 1.0);
     }
 
+    /// Turn contact off (or back on, in a world that has it): the body passes through walls,
+    /// poles and parts, and overlaps are counted as in the ideal world. For drives scripted
+    /// on the true pose that are not contact-aware (the localisation bench's tour docks
+    /// heading first and cuts corners): there a stuck body would measure the script, not the
+    /// estimator. The world's other draws stay as they are.
+    pub fn set_contact(&mut self, on: bool) {
+        self.contact = on && self.truth.profile != WorldProfile::Ideal;
+        self.in_contact.clear();
+    }
+
     /// Fault injection: the Mega resets now and is back `boot_us` later (its bootloader's
     /// wait), sending its `r` frame and counting from zero; `None`: it is gone for good (its
     /// USB cable out, the board dead). While it is off the motors get no PWM and the magnet
