@@ -16,7 +16,7 @@
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | the part fell off the magnet: look for it (regripping) |
-//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held ([`search`]) without finding it: magnet off, skip the action |
+//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
