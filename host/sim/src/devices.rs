@@ -186,9 +186,9 @@ impl SimDevices {
         Ok(())
     }
 
-    /// Carry the core's outputs into the world: the wheel references and the magnet to the
-    /// Mega as a `G H I J L` batch, and the lidar's start command (its data flows from the
-    /// next step on).
+    /// Carry the core's outputs into the world: the wheel references (or the open-loop PWM)
+    /// and the magnet to the Mega as a `G H I J L` (or `K K K K L`) batch, and the lidar's
+    /// start command (its data flows from the next step on).
     pub fn apply_outputs(&mut self, outputs: &Outputs) {
         if outputs.lidar == Some(LidarCommand::StartScan) {
             self.lidar_streaming = true;
@@ -196,9 +196,7 @@ impl SimDevices {
         // The core's references are finite by construction (limited inverse kinematics of a
         // finite twist); a non-finite one is a bug upstream and is not sent.
         if let Some(wheels) = outputs.wheels
-            && let Ok(bytes) = self
-                .mega
-                .encode_references(wheels.wheel_speeds_rad_s, wheels.solenoid_on)
+            && let Ok(bytes) = wheels.encode(&mut self.mega)
         {
             self.world.send_to_mega(&bytes);
         }

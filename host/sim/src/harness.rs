@@ -118,6 +118,7 @@ impl SimulatedRobot {
                     wheel_speeds_rad_s: output.wheel_speeds_rad_s,
                     solenoid_on: output.solenoid_on,
                     twist_scale: output.twist_scale,
+                    open_loop_pwm: None,
                 }),
                 // Scripts bring the lidar up at their first tick, as the core does.
                 lidar: self

@@ -120,8 +120,7 @@ impl RoundFaults {
         let Some(wheels) = outputs.wheels else {
             return;
         };
-        let driving = wheels.solenoid_on || wheels.wheel_speeds_rad_s.iter().any(|w| *w != 0.0);
-        if driving && now_us >= start_us {
+        if wheels.drives() && now_us >= start_us {
             self.last_drive_us = Some(now_us);
             if now_us > deadline_us {
                 self.unsafe_ticks += 1;

@@ -2,8 +2,9 @@
 //!
 //! The thread reads with a short timeout, feeds the bytes through the core's sans-I/O
 //! [`MegaLink`] stamped at arrival, and sends telemetry and resets to the loop. The loop
-//! writes references through a [`MegaHandle`] on its own 50 Hz tick, never only in reply to
-//! telemetry (original-system.md §10.1).
+//! writes the core's command (speed references, or the operator's open-loop PWM as `K`
+//! frames) through a [`MegaHandle`] on its own 50 Hz tick, never only in reply to telemetry
+//! (original-system.md §10.1).
 //!
 //! - **Opening resets the board** (DTR): nothing is written until the Mega has spoken (its
 //!   `r` or a telemetry batch) or `[link] mega_sync_timeout_ms` has passed, so the
@@ -148,10 +149,7 @@ impl Writer {
         let Some(port) = self.port.as_mut() else {
             return false;
         };
-        let Ok(bytes) = self
-            .link
-            .encode_references(command.wheel_speeds_rad_s, command.solenoid_on)
-        else {
+        let Ok(bytes) = command.encode(&mut self.link) else {
             return false;
         };
         match port.write_all(&bytes).and_then(|()| port.flush()) {

@@ -31,7 +31,8 @@ pub struct Status {
     pub started: Option<Timestamp>,
     /// The operator has stopped the robot.
     pub stopped: bool,
-    /// The operator drives the robot ([`OperatorCommand::Drive`]); the mission waits.
+    /// The operator drives the robot ([`OperatorCommand::Drive`] or
+    /// [`OperatorCommand::OpenLoop`]); the mission waits.
     pub manual: bool,
     /// Parts placed so far (the robot's own count, not the referee's points).
     pub placed: u32,
@@ -41,10 +42,19 @@ pub struct Status {
     pub inputs: InputCounts,
 }
 
-/// The operator's last [`OperatorCommand::Drive`].
+/// How the operator moves the wheels.
+#[derive(Clone, Copy, Debug)]
+enum ManualMotion {
+    /// A robot-frame twist, through the kinematics and the Mega's PI.
+    Twist(BodyTwist),
+    /// Signed PWM per motor, open loop.
+    Pwm([i16; 4]),
+}
+
+/// The operator's last [`OperatorCommand::Drive`] or [`OperatorCommand::OpenLoop`].
 #[derive(Clone, Copy, Debug)]
 struct ManualDrive {
-    twist: BodyTwist,
+    motion: ManualMotion,
     until_us: u64,
 }
 
@@ -168,6 +178,7 @@ impl Core {
         );
         outputs.referee = tick.request;
         let hold = self.silence.check(now_us, &mut outputs.events);
+        let mut open_loop_pwm = None;
         if self.stopped {
             self.robot.command_motion(BodyTwist::default());
             self.robot.command_solenoid(false);
@@ -177,11 +188,14 @@ impl Core {
                 .command_solenoid(tick.solenoid_on && !hold.magnet);
         } else if let Some(manual) = self.manual {
             let fresh = now_us <= manual.until_us && mega_heard;
-            self.robot.command_motion(if fresh {
-                manual.twist
-            } else {
-                BodyTwist::default()
-            });
+            match manual.motion {
+                ManualMotion::Twist(twist) if fresh => self.robot.command_motion(twist),
+                ManualMotion::Pwm(pwm) if fresh => {
+                    self.robot.command_motion(BodyTwist::default());
+                    open_loop_pwm = Some(pwm);
+                }
+                _ => self.robot.command_motion(BodyTwist::default()),
+            }
             self.robot.command_solenoid(tick.solenoid_on);
         } else {
             self.robot.command_motion(tick.twist);
@@ -192,6 +206,7 @@ impl Core {
             wheel_speeds_rad_s: wheels.wheel_speeds_rad_s,
             solenoid_on: wheels.solenoid_on,
             twist_scale: wheels.twist_scale,
+            open_loop_pwm,
         });
     }
 
@@ -211,19 +226,27 @@ impl Core {
                 outputs.events.push(Event::Resumed);
             }
             OperatorCommand::Drive { twist } => {
-                if self.manual.is_none() {
-                    outputs.events.push(Event::ManualDrive);
-                }
-                self.manual = Some(ManualDrive {
-                    twist: *twist,
-                    until_us: now_us + MANUAL_DEADMAN_US,
-                });
+                self.take_wheels(now_us, ManualMotion::Twist(*twist), outputs)
+            }
+            OperatorCommand::OpenLoop { pwm } => {
+                self.take_wheels(now_us, ManualMotion::Pwm(*pwm), outputs)
             }
             OperatorCommand::SetPose { pose } => {
                 self.robot.reset_pose(*pose, now_us);
                 outputs.events.push(Event::PoseSet { pose: *pose });
             }
         }
+    }
+
+    /// The operator moves the wheels with `motion` until the deadman lapses.
+    fn take_wheels(&mut self, now_us: u64, motion: ManualMotion, outputs: &mut Outputs) {
+        if self.manual.is_none() {
+            outputs.events.push(Event::ManualDrive);
+        }
+        self.manual = Some(ManualDrive {
+            motion,
+            until_us: now_us + MANUAL_DEADMAN_US,
+        });
     }
 
     /// The estimation and the wheel kinematics (pose, odometry, health).
@@ -367,6 +390,55 @@ mod tests {
         assert!(!core.status().manual && !core.status().stopped);
         // Back with the mission, which has no part list: it stands still.
         assert!(!moving(&core.step(&at(607, Input::HostTick))));
+    }
+
+    #[test]
+    fn open_loop_pwm_reaches_the_mega_until_the_deadman_lapses_and_a_stop_wins() {
+        let pwm_of = |out: &Outputs| out.wheels.and_then(|w| w.open_loop_pwm);
+        let mut core = core();
+        let step = Input::Operator(OperatorCommand::OpenLoop {
+            pwm: [30, -30, 30, -30],
+        });
+        core.step(&at(10, step.clone()));
+        assert_eq!(
+            pwm_of(&core.step(&at(27, Input::HostTick))),
+            None,
+            "nothing drives before the Mega has spoken"
+        );
+        core.step(&at(30, Input::MegaReset));
+        let held = core.step(&at(47, Input::HostTick)).wheels.unwrap();
+        assert_eq!(held.open_loop_pwm, Some([30, -30, 30, -30]));
+        assert_eq!(
+            held.wheel_speeds_rad_s, [0.0; 4],
+            "the references stand still"
+        );
+        assert!(held.drives() && core.status().manual);
+        assert!(pwm_of(&core.step(&at(507, Input::HostTick))).is_some());
+        let lapsed = core.step(&at(527, Input::HostTick)).wheels.unwrap();
+        assert_eq!(lapsed.open_loop_pwm, None, "the deadman lapsed");
+        assert!(!lapsed.drives());
+        core.step(&at(540, step.clone()));
+        core.step(&at(550, Input::Operator(OperatorCommand::Stop)));
+        core.step(&at(555, step.clone()));
+        assert_eq!(
+            pwm_of(&core.step(&at(567, Input::HostTick))),
+            None,
+            "a stop wins"
+        );
+        core.step(&at(600, Input::Operator(OperatorCommand::Resume)));
+        core.step(&at(610, step));
+        core.step(&at(
+            620,
+            Input::DeviceFault {
+                device: super::super::DeviceKind::Mega,
+                message: "port gone".into(),
+            },
+        ));
+        assert_eq!(
+            pwm_of(&core.step(&at(627, Input::HostTick))),
+            None,
+            "a fault wins"
+        );
     }
 
     #[test]

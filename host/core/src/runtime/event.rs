@@ -85,7 +85,8 @@ pub enum Event {
     Stopped,
     /// The operator let it go on (or handed the wheels back to the mission).
     Resumed,
-    /// The operator took the wheels ([`super::OperatorCommand::Drive`]): the mission pauses.
+    /// The operator took the wheels ([`super::OperatorCommand::Drive`] or
+    /// [`super::OperatorCommand::OpenLoop`]): the mission pauses.
     ManualDrive,
     /// The operator placed the robot: the pose estimate restarted here.
     PoseSet {

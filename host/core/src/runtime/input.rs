@@ -69,9 +69,9 @@ impl std::fmt::Display for DeviceKind {
     }
 }
 
-/// How long an [`OperatorCommand::Drive`] holds, µs: a driver that stops sending (a
-/// dropped joystick, a crashed script) stops the robot within half a second, as ROS 2's
-/// `cmd_vel` conventions expect.
+/// How long an [`OperatorCommand::Drive`] or [`OperatorCommand::OpenLoop`] holds, µs: a
+/// driver that stops sending (a dropped joystick, a crashed script) stops the robot within
+/// half a second, as ROS 2's `cmd_vel` conventions expect.
 pub const MANUAL_DEADMAN_US: u64 = 500_000;
 
 /// What an operator asks for (HMI, console, ROS 2): recorded like every other input.
@@ -97,6 +97,16 @@ pub enum OperatorCommand {
     Drive {
         /// Robot-frame velocity.
         twist: BodyTwist,
+    },
+    /// The operator takes the wheels open loop (motor identification, `ratf tune motors`):
+    /// the Mega gets this signed PWM per motor (`K` frames, motor index order; the Mega
+    /// clamps the magnitude to 255) instead of speed references, for
+    /// [`MANUAL_DEADMAN_US`] after this command, then zero references until the next
+    /// command. Otherwise as [`OperatorCommand::Drive`]: a stop wins, the magnet stays as
+    /// the mission holds it, [`OperatorCommand::Resume`] hands the wheels back.
+    OpenLoop {
+        /// Signed PWM per motor, motor index order (wire convention).
+        pwm: [i16; 4],
     },
     /// The robot stands at this pose (world frame): restart the pose estimate there.
     SetPose {

@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::event::Event;
+use crate::drivers::mega_link::{EncodeError, MegaLink};
 use crate::referee::protocol::Request;
 
 /// The wheel references and the magnet, sent to the Mega at every host tick.
@@ -14,6 +15,10 @@ pub struct WheelCommand {
     pub solenoid_on: bool,
     /// The factor the commanded twist was scaled by to respect the wheel limit (1 = none).
     pub twist_scale: f64,
+    /// Open-loop PWM per motor instead of the references (the operator's
+    /// [`super::OperatorCommand::OpenLoop`]): the Mega gets `K` frames, its PI is bypassed.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub open_loop_pwm: Option<[i16; 4]>,
 }
 
 impl WheelCommand {
@@ -22,7 +27,26 @@ impl WheelCommand {
         wheel_speeds_rad_s: [0.0; 4],
         solenoid_on: false,
         twist_scale: 1.0,
+        open_loop_pwm: None,
     };
+
+    /// True when the command moves a wheel or holds the magnet on.
+    pub fn drives(&self) -> bool {
+        self.solenoid_on
+            || self.wheel_speeds_rad_s.iter().any(|w| *w != 0.0)
+            || self
+                .open_loop_pwm
+                .is_some_and(|pwm| pwm.iter().any(|p| *p != 0))
+    }
+
+    /// The Mega's batch for this command on `link`: `K` frames for an open-loop command,
+    /// else the speed references (`G`–`J`), with the magnet (`L`) either way.
+    pub fn encode(&self, link: &mut MegaLink) -> Result<Vec<u8>, EncodeError> {
+        match self.open_loop_pwm {
+            Some(pwm) => Ok(link.encode_pwm(pwm, self.solenoid_on)),
+            None => link.encode_references(self.wheel_speeds_rad_s, self.solenoid_on),
+        }
+    }
 }
 
 /// A command for the lidar (bring-up through the seam: the X4 streams only once told).

@@ -14,6 +14,7 @@ const DRIVE: WheelCommand = WheelCommand {
     wheel_speeds_rad_s: [4.0; 4],
     solenoid_on: true,
     twist_scale: 1.0,
+    open_loop_pwm: None,
 };
 
 /// Wait for the Mega's `r`, the link up and a few telemetry batches.
