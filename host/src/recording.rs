@@ -28,7 +28,7 @@ use serde::{Deserialize, Serialize};
 
 use ratf_core::config::Config;
 use ratf_core::field::geometry::Pose2;
-use ratf_core::runtime::{Input, Outputs, Stamped, StepView, Tap, Timestamp};
+use ratf_core::runtime::{Devices, Input, Outputs, Stamped, StepView, Tap, Timestamp};
 
 use crate::ros2::msgs::EncodeError;
 use crate::ros2::record::Ros2Channels;
@@ -355,6 +355,32 @@ pub struct Recording {
     /// True when the file ended early (a crash or kill): everything up to the last
     /// complete chunk was read.
     pub truncated: bool,
+}
+
+/// A recording's inputs as devices, in the order the core consumed them; outputs go nowhere.
+/// A core rebuilt from the recorded configuration and start pose and run over them with a
+/// collecting tap sees what the recorded run's core saw (the core is a pure fold): how
+/// `ratf calibrate odometry` and `ratf tune motors` fit again from a recording.
+#[derive(Debug)]
+pub struct RecordedInputs<'a>(std::slice::Iter<'a, Stamped>);
+
+impl<'a> RecordedInputs<'a> {
+    /// The inputs of `recording`.
+    pub fn of(recording: &'a Recording) -> Self {
+        Self(recording.inputs.iter())
+    }
+}
+
+impl Devices for RecordedInputs<'_> {
+    type Error = std::convert::Infallible;
+
+    fn next_input(&mut self) -> Result<Option<Stamped>, Self::Error> {
+        Ok(self.0.next().cloned())
+    }
+
+    fn apply(&mut self, _: &Stamped, _: &Outputs) -> Result<(), Self::Error> {
+        Ok(())
+    }
 }
 
 impl Recording {

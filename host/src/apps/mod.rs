@@ -1,7 +1,7 @@
 //! Apps built on the core and the simulated world: a whole round ([`round`]), the velocity
 //! scripts ([`drive`], [`scripts`]), the benchmarks ([`loc_bench`], [`nav_bench`],
 //! [`fault_bench`]; where a round's time goes: [`time_split`]) and the replay of a recording
-//! ([`replay`]).
+//! ([`replay`]); operator commands scripted through the runtime ([`operator_script`]).
 
 pub mod calibrate;
 pub mod check;
@@ -10,6 +10,7 @@ pub mod fault_bench;
 pub mod fault_round;
 pub mod loc_bench;
 pub mod nav_bench;
+pub mod operator_script;
 pub mod replay;
 pub mod round;
 pub mod run;

@@ -13,6 +13,9 @@ use std::fmt;
 use ratf_core::field::Field;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::kinematics::BodyTwist;
+use ratf_core::runtime::OperatorCommand;
+
+use super::operator_script::OperatorScript;
 
 /// A body twist to reach at a time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,6 +68,19 @@ impl Script {
     /// When the last keyframe is reached, s.
     pub fn duration_s(&self) -> f64 {
         self.keyframes.last().map_or(0.0, |k| k.time_s)
+    }
+}
+
+/// The twists as the operator's [`OperatorCommand::Drive`].
+impl OperatorScript for Script {
+    fn command_at(&self, seconds: f64) -> OperatorCommand {
+        OperatorCommand::Drive {
+            twist: self.twist_at(seconds),
+        }
+    }
+
+    fn duration_s(&self) -> f64 {
+        Script::duration_s(self)
     }
 }
 

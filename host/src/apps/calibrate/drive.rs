@@ -1,114 +1,22 @@
 //! The calibration drive through the robot's own runtime: the drive's twists enter the core
-//! as the operator's [`OperatorCommand::Drive`] (so a recording holds them, and the same code
-//! drives the simulated world and the real devices), and a tap collects what the robot saw
-//! and believed at each stop.
+//! as the operator's [`ratf_core::runtime::OperatorCommand::Drive`]
+//! ([`crate::apps::operator_script`]: a recording holds them, and the same code drives the
+//! simulated world and the real devices), and a tap collects what the robot saw and
+//! believed at each stop.
 
 use ratf_core::calibration::{Stop, StopRecorder};
 use ratf_core::config::Config;
 use ratf_core::drivers::x4::scan::Scan;
 use ratf_core::field::Field;
 use ratf_core::field::geometry::Pose2;
-use ratf_core::runtime::{
-    Core, Devices, Flow, Input, OperatorCommand, Outputs, Stamped, StepView, Tap, Timestamp, run,
-};
+use ratf_core::runtime::{Core, Devices, Flow, Input, StepView, Tap, run};
 
+use crate::apps::operator_script::{ScriptClock, ScriptedDrive};
 use crate::apps::scripts::{Script, StopWindow};
 
 /// Time after a stop begins for the robot to come to rest, s (the legs' 0.3 s ramp and the
 /// wheels' settling).
 pub const SETTLE_S: f64 = 0.5;
-
-/// The drive's own clock: it starts at the first host tick after the Mega has spoken (the
-/// core drives nothing before), so the script runs the same on a board that took a second
-/// to boot as in the simulator.
-#[derive(Clone, Copy, Debug, Default)]
-struct ScriptClock {
-    mega_heard: bool,
-    start: Option<Timestamp>,
-}
-
-impl ScriptClock {
-    /// Follow `input`; the script's time at it, s, once started.
-    fn observe(&mut self, input: &Stamped) -> Option<f64> {
-        match input.input {
-            Input::Wheels(_) | Input::MegaReset => self.mega_heard = true,
-            Input::HostTick if self.mega_heard && self.start.is_none() => {
-                self.start = Some(input.time);
-            }
-            _ => {}
-        }
-        self.seconds_at(input.time.as_us() as f64)
-    }
-
-    /// The script's time at `time_us` on the robot's clock, s, once started.
-    fn seconds_at(&self, time_us: f64) -> Option<f64> {
-        self.start
-            .map(|start| (time_us - start.as_us() as f64) * 1e-6)
-    }
-}
-
-/// `devices` with the script's twist sent to the core before every host tick.
-#[derive(Debug)]
-pub struct ScriptedDrive<'a, D> {
-    devices: D,
-    script: &'a Script,
-    clock: ScriptClock,
-    held_tick: Option<Stamped>,
-    finished: bool,
-}
-
-impl<'a, D: Devices> ScriptedDrive<'a, D> {
-    /// Drive `script` (robot-frame twists) on `devices`.
-    pub fn new(devices: D, script: &'a Script) -> Self {
-        Self {
-            devices,
-            script,
-            clock: ScriptClock::default(),
-            held_tick: None,
-            finished: false,
-        }
-    }
-
-    /// The script has run to its end.
-    pub fn finished(&self) -> bool {
-        self.finished
-    }
-}
-
-impl<D: Devices> Devices for ScriptedDrive<'_, D> {
-    type Error = D::Error;
-
-    fn next_input(&mut self) -> Result<Option<Stamped>, D::Error> {
-        if let Some(tick) = self.held_tick.take() {
-            return Ok(Some(tick));
-        }
-        let Some(input) = self.devices.next_input()? else {
-            return Ok(None);
-        };
-        match self.clock.observe(&input) {
-            Some(seconds) if matches!(input.input, Input::HostTick) => {
-                self.finished = seconds > self.script.duration_s();
-                let drive = Stamped::new(
-                    input.time,
-                    Input::Operator(OperatorCommand::Drive {
-                        twist: self.script.twist_at(seconds),
-                    }),
-                );
-                self.held_tick = Some(input);
-                Ok(Some(drive))
-            }
-            _ => Ok(Some(input)),
-        }
-    }
-
-    fn apply(&mut self, input: &Stamped, outputs: &Outputs) -> Result<(), D::Error> {
-        self.devices.apply(input, outputs)
-    }
-
-    fn ground_truth(&self) -> Option<Pose2> {
-        self.devices.ground_truth()
-    }
-}
 
 /// One stop's scans and the robot's poses there.
 #[derive(Clone, Debug, Default)]
@@ -224,56 +132,7 @@ pub fn drive_and_collect<D: Devices>(
     let field = config.field.field();
     Ok(Driven {
         stops: collector.finish(config, &field),
-        finished: scripted.finished,
-        devices: scripted.devices,
+        finished: scripted.finished(),
+        devices: scripted.into_devices(),
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::apps::scripts::calibration_drive;
-    use std::collections::VecDeque;
-
-    /// Inputs from a list; outputs ignored.
-    struct Listed(VecDeque<Stamped>);
-
-    impl Devices for Listed {
-        type Error = std::convert::Infallible;
-
-        fn next_input(&mut self) -> Result<Option<Stamped>, Self::Error> {
-            Ok(self.0.pop_front())
-        }
-
-        fn apply(&mut self, _: &Stamped, _: &Outputs) -> Result<(), Self::Error> {
-            Ok(())
-        }
-    }
-
-    fn at(ms: u64, input: Input) -> Stamped {
-        Stamped::new(Timestamp::from_us(ms * 1_000), input)
-    }
-
-    #[test]
-    fn the_script_drives_before_every_tick_once_the_mega_has_spoken() {
-        let (script, _) = calibration_drive();
-        let inputs = [
-            at(0, Input::HostTick),
-            at(10, Input::MegaReset),
-            at(20, Input::HostTick),
-            at(40, Input::HostTick),
-        ];
-        let mut scripted = ScriptedDrive::new(Listed(inputs.into_iter().collect()), &script);
-        let mut seen = Vec::new();
-        while let Some(input) = scripted.next_input().unwrap() {
-            seen.push(match input.input {
-                Input::HostTick => "tick",
-                Input::MegaReset => "reset",
-                Input::Operator(OperatorCommand::Drive { .. }) => "drive",
-                _ => "other",
-            });
-        }
-        assert_eq!(seen, ["tick", "reset", "drive", "tick", "drive", "tick"]);
-        assert!(!scripted.finished());
-    }
 }

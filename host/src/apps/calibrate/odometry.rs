@@ -19,14 +19,14 @@ use super::robot::{RobotCalibrateError, RobotDrive, drive_on_robot, open_recorde
 use super::{CalibrateError, beliefs};
 use crate::apps::scripts::odometry_drive;
 use crate::devices::Shared;
-use crate::recording::{Recording, RecordingError};
+use crate::recording::{RecordedInputs, Recording, RecordingError};
 use ratf_core::calibration::{CalibrationError, Stop};
 use ratf_core::config::{Config, WorldProfile};
 use ratf_core::identification::odometry_fit::{
     self, Leg, OdometryFit, OdometryFitError, TURN_MAX_SHIFT_M, TURN_MIN_RAD,
 };
 use ratf_core::planning::tasks::TaskError;
-use ratf_core::runtime::{Core, Devices, Flow, Outputs, Stamped, Tap, run};
+use ratf_core::runtime::{Core, Flow, Tap, run};
 use ratf_sim::devices::SimDevices;
 use ratf_sim::truth::WorldTruth;
 use ratf_sim::world::Scenario;
@@ -382,21 +382,6 @@ pub fn run_on_robot(
     fit_checked(&stops, config, recording)
 }
 
-/// A recording's inputs, in the order the core consumed them; outputs go nowhere.
-struct RecordedInputs<'a>(std::slice::Iter<'a, Stamped>);
-
-impl Devices for RecordedInputs<'_> {
-    type Error = std::convert::Infallible;
-
-    fn next_input(&mut self) -> Result<Option<Stamped>, Self::Error> {
-        Ok(self.0.next().cloned())
-    }
-
-    fn apply(&mut self, _: &Stamped, _: &Outputs) -> Result<(), Self::Error> {
-        Ok(())
-    }
-}
-
 /// The fit from the recording at `path` of an odometry drive (by [`run_on_robot`]): the core
 /// rebuilt from the recorded configuration and start pose and re-run over the recorded
 /// inputs (the drive's commands among them) with the drive's collecting tap; the core is a
@@ -413,7 +398,7 @@ pub fn from_recording(path: &Path) -> Result<RobotOdometry, OdometryCalibrateErr
     let config = &recording.config;
     let mut core = Core::new(config, recording.session.start_pose)?;
     let mut collector = StopCollector::new(odometry_drive().1);
-    let mut inputs = RecordedInputs(recording.inputs.iter());
+    let mut inputs = RecordedInputs::of(&recording);
     let Ok(_) = run(&mut core, &mut inputs, &mut [&mut collector], |_, _| {
         Flow::Continue
     });
