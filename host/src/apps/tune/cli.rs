@@ -14,8 +14,9 @@ use ratf_core::identification::pi_tuning::TuningGoal;
 
 use super::gains::{self, STEP_RAD_S};
 use super::motors::{self, StepPlan, WheelReport};
-use super::robot::run_on_robot;
+use super::robot::{RECORDING_KIND, from_recording, run_on_robot};
 use super::svg::{Panel, time_series};
+use crate::apps::run::timestamped_recording;
 use crate::devices::Shared;
 
 /// `ratf tune motors`.
@@ -26,15 +27,23 @@ pub struct MotorsArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Identify the simulated robot's motors (the simulated Mega and motors).
-    #[arg(long, conflicts_with_all = ["from_csv", "robot"])]
+    #[arg(long, conflicts_with_all = ["from_csv", "robot", "from_recording"])]
     pub sim: bool,
-    /// On the robot's own Mega (`--config` is the robot's file): the wheels off the ground,
-    /// or the robot on the floor with a metre of room around it.
-    #[arg(long, requires = "config", conflicts_with = "from_csv")]
+    /// On the robot, through its runtime (`--config` is the robot's file; its devices as
+    /// `ratf run` opens them): the wheels off the ground, or the robot on the floor with a
+    /// metre of room around it. Recorded under `--out`.
+    #[arg(long, requires = "config", conflicts_with_all = ["from_csv", "from_recording"])]
     pub robot: bool,
     /// Do not ask before driving (with `--robot`).
     #[arg(long, requires = "robot")]
     pub yes: bool,
+    /// Folder for the recording of the steps (with `--robot`).
+    #[arg(long, value_name = "DIR", default_value = "out", requires = "robot")]
+    pub out: PathBuf,
+    /// Fit from a recording of `--robot`'s steps (the core re-run over its inputs; the
+    /// battery voltage the run was given is in it).
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["from_csv", "battery_v"])]
+    pub from_recording: Option<PathBuf>,
     /// Simulator seed.
     #[arg(long, default_value_t = 1, requires = "sim")]
     pub seed: u64,
@@ -152,12 +161,27 @@ pub fn motors_command(args: &MotorsArgs, interrupt: &Shared) -> anyhow::Result<(
                 bail!("not driven (answer y to drive)");
             }
         }
-        let wheels = run_on_robot(&config, &plan, battery_v, interrupt)?;
+        fs::create_dir_all(&args.out)
+            .with_context(|| format!("creating {}", args.out.display()))?;
+        let recording = timestamped_recording(&args.out, RECORDING_KIND);
+        let run = run_on_robot(&config, &plan, battery_v, &recording, interrupt)
+            .with_context(|| format!("the steps (recording {})", recording.display()))?;
         std::println!(
-            "drove {:.1} s of PWM steps on {} (levels {:?}); battery {battery_v:.2} V",
+            "drove {:.1} s of PWM steps on {} (levels {:?}); battery {battery_v:.2} V; \
+             recorded to {}",
             plan.duration_s(),
             config.link.mega_port,
-            plan.levels
+            plan.levels,
+            run.recording.display()
+        );
+        (run.wheels, None)
+    } else if let Some(path) = &args.from_recording {
+        let wheels =
+            from_recording(path).with_context(|| format!("the recording {}", path.display()))?;
+        std::println!(
+            "{}: {} telemetry batches under the steps",
+            path.display(),
+            wheels.first().map_or(0, Vec::len)
         );
         (wheels, None)
     } else if let Some(csv) = &args.from_csv {
@@ -196,7 +220,7 @@ pub fn motors_command(args: &MotorsArgs, interrupt: &Shared) -> anyhow::Result<(
         );
         (wheels, Some(run.truth))
     } else {
-        bail!("give --robot (with --config), --sim or --from-csv FILE");
+        bail!("give --robot (with --config), --sim, --from-recording FILE or --from-csv FILE");
     };
     let fits =
         motors::fit_all(&wheels).map_err(|(wheel, e)| anyhow::anyhow!("wheel {wheel}: {e}"))?;

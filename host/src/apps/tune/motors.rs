@@ -11,6 +11,7 @@ use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
 use ratf_core::identification::motor_fit::{self, MotorFit, MotorFitError};
 use ratf_core::identification::motor_model::{MotorModel, Sample};
 use ratf_core::kinematics::{BodyTwist, Mecanum};
+use ratf_sim::truth::WorldTruth;
 use ratf_sim::world::{Scenario, World};
 use serde::Serialize;
 use std::collections::VecDeque;
@@ -240,19 +241,24 @@ pub fn run_in_sim(config: &Config, plan: &StepPlan) -> SimSteps {
             }
         });
     }
-    let truth = std::array::from_fn(|k| MotorModel {
-        gain_rad_s_per_v: config.motor.gain_rad_s_per_v * truth_draw.motor_gain_scale[k],
-        time_constant_s: config.motor.time_constant_s,
-        // The floor's load torque acts as more dead zone (`ratf_sim::motor::load_voltage_v`).
-        dead_zone_v: config.motor.dead_zone_v
-            + ratf_sim::motor::load_voltage_v(&config.motor, truth_draw.wheel_load_torque_nm[k]),
-        delay_s: 0.0,
-    });
     SimSteps {
         wheels,
-        truth,
+        truth: true_models(config, &truth_draw),
         battery_v,
     }
+}
+
+/// The simulated motors' true models in the world `truth` drawn for `config` (delay 0: the
+/// simulated Mega applies PWM at its tick; the floor's load torque acts as more dead zone,
+/// `ratf_sim::motor::load_voltage_v`).
+pub fn true_models(config: &Config, truth: &WorldTruth) -> [MotorModel; 4] {
+    std::array::from_fn(|k| MotorModel {
+        gain_rad_s_per_v: config.motor.gain_rad_s_per_v * truth.motor_gain_scale[k],
+        time_constant_s: config.motor.time_constant_s,
+        dead_zone_v: config.motor.dead_zone_v
+            + ratf_sim::motor::load_voltage_v(&config.motor, truth.wheel_load_torque_nm[k]),
+        delay_s: 0.0,
+    })
 }
 
 #[cfg(test)]

@@ -1,61 +1,67 @@
-//! `ratf tune motors --robot`: the PWM steps on the robot's own Mega (its port from the
-//! configuration), held open loop through the Mega's thread ([`MegaHandle::hold_open_loop`],
-//! `K` frames resent every host tick, as `ratf check` turns the wheels), the telemetry
-//! collected as samples for the fit.
+//! `ratf tune motors --robot` and `--from-recording`: the identification's PWM steps
+//! through the robot's own runtime. Each step enters the core as the operator's
+//! [`OperatorCommand::OpenLoop`] before every host tick ([`crate::apps::operator_script`]),
+//! the core sends it to the Mega as `K` frames, the recorder writes the run, and a tap
+//! ([`PwmSampler`]) turns each telemetry batch into one sample per wheel.
 //!
-//! Each hold ends 0.2 s after it was set unless renewed, so a host that dies mid-step stops
-//! the wheels (and the Mega's own watchdog stops them 100 ms after the last `K`). Ctrl-C
-//! stops at once: zero PWM, then the thread ends. A sample's voltage is the PWM held when
-//! the Mega sampled its encoders; the host resends holds on its own 20 ms tick, so the
-//! fitted delay includes up to one host tick of the host's latency.
+//! Safety is the core's: an open-loop command holds for the core's deadman (0.5 s) unless
+//! renewed, a stop or a device fault wins at once, and the Mega's own watchdog stops every
+//! motor 100 ms after its last `K`; Ctrl-C stops the loop, and on every way out the wheels
+//! get zero references and the magnet goes off. The PWM of a sample is the one the core
+//! commanded at the last host tick before the Mega sampled its encoders, so the fitted
+//! delay includes up to one host tick (20 ms) of the host's own latency.
+//!
+//! A recording of such a run holds the commands among its inputs: the core rebuilt from it
+//! and re-run with the same tap gives the same samples ([`from_recording`]), and the
+//! recorded configuration's `[motor] battery_voltage_v` is the battery the run was told.
 
-use std::time::Duration;
+use std::path::{Path, PathBuf};
 
 use ratf_core::config::Config;
 use ratf_core::identification::motor_model::Sample;
-use ratf_core::runtime::Input;
+use ratf_core::planning::tasks::TaskError;
+use ratf_core::runtime::{
+    Core, Devices, Flow, Input, OperatorCommand, StepView, Tap, Timestamp, run,
+};
 
 use super::motors::{StepPlan, patterns};
-use crate::devices::mega::{self as mega_device, MegaHandle, MegaSettings, open_port};
-use crate::devices::open_loop::OpenLoopHold;
-use crate::devices::{Clock, Message, Shared, inbox};
+use crate::apps::calibrate::robot::open_recorder;
+use crate::apps::operator_script::{OperatorScript, ScriptedDrive};
+use crate::apps::run::{RunError, open_devices};
+use crate::devices::{DeviceError, Shared};
+use crate::recording::{RecordedInputs, Recording, RecordingError};
 
-/// How long each hold lasts unless renewed, µs.
-const HOLD_US: u64 = 200_000;
+/// The kind of a recording of the identification (its session's `kind`).
+pub const RECORDING_KIND: &str = "tune-motors";
 /// A batch arriving sooner than this after the previous one came in a burst, µs (the
 /// Mega sends one every 20 ms).
 const BURST_US: u64 = 5_000;
 /// Largest share of batches that may come in bursts.
 const MAX_BURST_SHARE: f64 = 0.02;
-/// How long to wait for the Mega's first telemetry, s.
+/// How long to wait for the Mega's first word, s.
 const FIRST_TELEMETRY_S: f64 = 3.0;
 
-/// Why the steps could not be run.
+/// Why the identification's steps could not be run or read back.
 #[derive(Debug, thiserror::Error)]
-pub enum RobotStepsError {
-    /// The port could not be opened.
+pub enum TuneRobotError {
+    /// A device could not be opened or the core built.
+    #[error(transparent)]
+    Setup(#[from] RunError),
+    /// A device failed during the steps.
+    #[error("during the steps: {0}")]
+    Device(#[from] DeviceError),
+    /// The recording could not be written or read.
+    #[error("recording: {0}")]
+    Recording(#[from] Box<RecordingError>),
+    /// The core could not be rebuilt from a recorded configuration.
+    #[error("the recorded configuration: {0}")]
+    Core(#[from] TaskError),
+    /// The Mega never spoke.
     #[error(
-        "mega: cannot open {port}: {error}; check [link] mega_port and the USB cable \
-         (ratf check)"
+        "mega: no telemetry within {FIRST_TELEMETRY_S} s: run `ratf check` (is the firmware \
+         flashed, is it the right port?)"
     )]
-    Port {
-        /// The port.
-        port: String,
-        /// What failed.
-        error: String,
-    },
-    /// The Mega's thread could not start.
-    #[error("mega: starting its thread: {0}")]
-    Thread(std::io::Error),
-    /// No telemetry came.
-    #[error(
-        "mega: no telemetry within {FIRST_TELEMETRY_S} s on {0}: run `ratf check` (is the \
-         firmware flashed, is it the right port?)"
-    )]
-    Silent(String),
-    /// The Mega went away during the steps.
-    #[error("mega: {0}")]
-    Gone(String),
+    Silent,
     /// Telemetry came in bursts: which PWM each sample saw cannot be told.
     #[error(
         "mega: {bursts} of {batches} telemetry batches arrived within {} ms of the previous \
@@ -66,161 +72,357 @@ pub enum RobotStepsError {
     Bursty {
         /// Batches that arrived in a burst.
         bursts: usize,
-        /// All batches.
+        /// All batches under open-loop commands.
         batches: usize,
     },
     /// Ctrl-C or SIGTERM.
-    #[error("stopped by Ctrl-C or SIGTERM; the wheels were stopped")]
+    #[error("stopped by Ctrl-C or SIGTERM; the wheels were stopped and nothing was fitted")]
     Interrupted,
+    /// The recording is of another kind of run.
+    #[error(
+        "{}: a recording of a {kind:?} run, not of the motor identification: give the \
+         recording `ratf tune motors --robot` wrote",
+        .path.display()
+    )]
+    NotTuning {
+        /// The file.
+        path: PathBuf,
+        /// Its session's kind.
+        kind: String,
+    },
 }
 
-/// Run `plan` on the robot's Mega; per wheel, one sample per telemetry batch, with
-/// `battery_v` at PWM `[mega] pwm_max`. `interrupt` is Ctrl-C's flag.
+/// The identification's PWM steps as the operator's open-loop commands.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PwmSteps {
+    plan: StepPlan,
+    patterns: [[i8; 4]; 3],
+}
+
+impl PwmSteps {
+    /// The steps of `plan` in the wheel patterns of `config`'s kinematics.
+    pub fn new(config: &Config, plan: &StepPlan) -> Self {
+        Self {
+            plan: plan.clone(),
+            patterns: patterns(config),
+        }
+    }
+}
+
+impl OperatorScript for PwmSteps {
+    fn command_at(&self, seconds: f64) -> OperatorCommand {
+        OperatorCommand::OpenLoop {
+            pwm: self.plan.pwm_at(&self.patterns, seconds).unwrap_or([0; 4]),
+        }
+    }
+
+    fn duration_s(&self) -> f64 {
+        self.plan.duration_s()
+    }
+}
+
+/// A tap that turns each telemetry batch under an open-loop command into one sample per
+/// wheel: the speed from the batch's encoder deltas, the voltage from the PWM the core
+/// commanded last before the batch was sampled, at the configuration's battery voltage.
+#[derive(Clone, Debug)]
+pub struct PwmSampler {
+    volts_per_pwm: f64,
+    rad_per_tick: f64,
+    /// (since, PWM) at every change of the core's open-loop command (`None`: closed loop).
+    commanded: Vec<(Timestamp, Option<[i16; 4]>)>,
+    wheels: Vec<Vec<Sample>>,
+    batches: usize,
+    bursts: usize,
+    last_arrival: Option<Timestamp>,
+}
+
+impl PwmSampler {
+    /// A sampler in the beliefs of `config` (`[mega] pwm_max`, `[motor]
+    /// battery_voltage_v`, `robot.ticks_per_wheel_rev`).
+    pub fn new(config: &Config) -> Self {
+        Self {
+            volts_per_pwm: config.motor.battery_voltage_v / f64::from(config.mega.pwm_max),
+            rad_per_tick: std::f64::consts::TAU / config.robot.ticks_per_wheel_rev,
+            commanded: Vec::new(),
+            wheels: vec![Vec::new(); 4],
+            batches: 0,
+            bursts: 0,
+            last_arrival: None,
+        }
+    }
+
+    /// Per wheel, the samples; refused when the telemetry came in bursts.
+    pub fn finish(self) -> Result<Vec<Vec<Sample>>, TuneRobotError> {
+        if self.bursts as f64 > MAX_BURST_SHARE * self.batches as f64 {
+            return Err(TuneRobotError::Bursty {
+                bursts: self.bursts,
+                batches: self.batches,
+            });
+        }
+        Ok(self.wheels)
+    }
+
+    fn pwm_at(&self, time: Timestamp) -> Option<[i16; 4]> {
+        self.commanded
+            .iter()
+            .rev()
+            .find(|(since, _)| *since <= time)
+            .and_then(|(_, pwm)| *pwm)
+    }
+}
+
+impl Tap for PwmSampler {
+    fn on_step(&mut self, step: &StepView<'_>) {
+        match &step.input.input {
+            Input::HostTick => {
+                let Some(wheels) = step.outputs.wheels else {
+                    return;
+                };
+                let pwm = wheels.open_loop_pwm;
+                if self.commanded.last().map(|(_, last)| *last) != Some(pwm) {
+                    self.commanded.push((step.input.time, pwm));
+                }
+            }
+            Input::Wheels(t) => {
+                let sampled = Timestamp::from_us(t.sampled_at_us);
+                let (Some(pwm), Some(deltas), true) =
+                    (self.pwm_at(sampled), t.deltas_ticks, t.period_us > 0)
+                else {
+                    return;
+                };
+                let arrived = step.input.time;
+                if self
+                    .last_arrival
+                    .is_some_and(|last| arrived.as_us() < last.as_us() + BURST_US)
+                {
+                    self.bursts += 1;
+                }
+                self.last_arrival = Some(arrived);
+                self.batches += 1;
+                let period_s = f64::from(t.period_us) * 1e-6;
+                for (k, wheel) in self.wheels.iter_mut().enumerate() {
+                    wheel.push(Sample {
+                        period_s,
+                        voltage_v: f64::from(pwm[k]) * self.volts_per_pwm,
+                        speed_rad_s: f64::from(deltas[k]) * self.rad_per_tick / period_s,
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// What the steps brought back.
+#[derive(Debug)]
+pub struct Stepped {
+    /// The sampler, to finish.
+    pub sampler: PwmSampler,
+    /// The steps ran to their end (not cut short by `quit`, the Mega's silence or the
+    /// devices running out).
+    pub finished: bool,
+    /// The Mega never spoke within [`FIRST_TELEMETRY_S`] of the first input.
+    pub silent: bool,
+}
+
+/// Run the steps of `plan` with `core` on `devices` (every tap sees every step), sampled in
+/// the beliefs of `config`; stops early when `quit` says so or the Mega never speaks.
+pub fn run_steps<D: Devices>(
+    core: &mut Core,
+    devices: D,
+    plan: &StepPlan,
+    config: &Config,
+    taps: &mut [&mut dyn Tap],
+    mut quit: impl FnMut() -> bool,
+) -> Result<Stepped, D::Error> {
+    let steps = PwmSteps::new(config, plan);
+    let mut scripted = ScriptedDrive::new(devices, &steps);
+    let mut sampler = PwmSampler::new(config);
+    let mut first: Option<Timestamp> = None;
+    let mut silent = false;
+    {
+        let mut all: Vec<&mut dyn Tap> = Vec::with_capacity(taps.len() + 1);
+        all.push(&mut sampler);
+        for tap in taps.iter_mut() {
+            all.push(&mut **tap);
+        }
+        run(core, &mut scripted, &mut all, |core, devices| {
+            let status = core.status();
+            let since = first.get_or_insert(status.time).as_us();
+            let heard = status.inputs.mega_resets + status.inputs.wheel_batches > 0;
+            silent = !heard
+                && status.time.as_us().saturating_sub(since) as f64 * 1e-6 > FIRST_TELEMETRY_S;
+            if silent || devices.finished() || quit() {
+                Flow::Stop
+            } else {
+                Flow::Continue
+            }
+        })?;
+    }
+    Ok(Stepped {
+        finished: scripted.finished(),
+        silent,
+        sampler,
+    })
+}
+
+/// The samples of an identification on the robot, and its recording.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobotSteps {
+    /// Per wheel, one sample per telemetry batch under the steps.
+    pub wheels: Vec<Vec<Sample>>,
+    /// The recording of the run.
+    pub recording: PathBuf,
+}
+
+/// Run `plan` on the robot's devices (`config`'s ports, as `ratf run` opens them: the core
+/// holds the wheels while the lidar is silent), the samples' voltages at `battery_v` (a
+/// multimeter's reading), recorded to `recording`. `shared` carries the quit flag (wire the
+/// signals to it first) and the panic flag; on every way out the wheels get zero
+/// references and the magnet goes off.
 pub fn run_on_robot(
     config: &Config,
     plan: &StepPlan,
     battery_v: f64,
-    interrupt: &Shared,
-) -> Result<Vec<Vec<Sample>>, RobotStepsError> {
-    let settings = MegaSettings::from_config(config);
-    let port = open_port(&settings.port, settings.baud).map_err(|e| RobotStepsError::Port {
-        port: settings.port.clone(),
-        error: e.to_string(),
-    })?;
-    let clock = Clock::start();
-    let shared = Shared::new();
-    let (tx, rx) = inbox(&shared);
-    let mega = MegaHandle::new(settings.link, settings.controller);
-    let thread = mega_device::spawn(
-        settings.clone(),
-        port,
-        clock,
-        tx,
-        mega.clone(),
-        shared.clone(),
-    )
-    .map_err(RobotStepsError::Thread)?;
-    let result = steps(
-        config,
+    recording: &Path,
+    shared: &Shared,
+) -> Result<RobotSteps, TuneRobotError> {
+    let mut config = config.clone();
+    config.motor.battery_voltage_v = battery_v;
+    let start = config.field.field().start_pose();
+    let mut core = Core::new(&config, start).map_err(RunError::from)?;
+    let mut recorder =
+        open_recorder(&config, start, RECORDING_KIND, recording).map_err(Box::new)?;
+    let opened = open_devices(&config, shared, Vec::new())?;
+    let stepped = run_steps(
+        &mut core,
+        opened.devices,
         plan,
-        battery_v,
-        interrupt,
-        &settings.port,
-        clock,
-        &rx,
-        &mega,
+        &config,
+        &mut [&mut recorder],
+        || shared.quitting(),
     );
-    mega.stop(clock.now());
-    // Let the stop reach the Mega before the thread ends.
-    std::thread::sleep(Duration::from_millis(60));
-    shared.request_quit();
-    let _ = thread.join();
-    result
+    opened.running.close(shared);
+    let recording = recorder.finish().map_err(Box::new)?;
+    let stepped = stepped?;
+    if stepped.silent {
+        return Err(TuneRobotError::Silent);
+    }
+    if !stepped.finished {
+        return Err(TuneRobotError::Interrupted);
+    }
+    Ok(RobotSteps {
+        wheels: stepped.sampler.finish()?,
+        recording,
+    })
 }
 
-#[allow(clippy::too_many_arguments)]
-fn steps(
-    config: &Config,
-    plan: &StepPlan,
-    battery_v: f64,
-    interrupt: &Shared,
-    port: &str,
-    clock: Clock,
-    rx: &std::sync::mpsc::Receiver<Message>,
-    mega: &MegaHandle,
-) -> Result<Vec<Vec<Sample>>, RobotStepsError> {
-    let patterns = patterns(config);
-    let pwm_max = f64::from(config.mega.pwm_max);
-    let rad_per_tick = std::f64::consts::TAU / config.robot.ticks_per_wheel_rev;
-    let mut wheels = vec![Vec::new(); 4];
-    // (since µs, PWM) per hold set, to find the PWM in force at a sample.
-    let mut held: Vec<(u64, [i16; 4])> = Vec::new();
-    let mut start_us: Option<u64> = None;
-    let mut renewed_us = 0u64;
-    let (mut bursts, mut last_arrival_us) = (0usize, None::<u64>);
-    let asked_at = clock.now().as_us();
-    loop {
-        if interrupt.quitting() {
-            return Err(RobotStepsError::Interrupted);
+/// The samples from the recording at `path` of an identification (by [`run_on_robot`]):
+/// the core rebuilt from the recorded configuration and re-run over the recorded inputs
+/// (the steps' commands among them) with the same sampler; the voltages at the recorded
+/// `[motor] battery_voltage_v`. A recording of another kind of run is refused; one cut
+/// short (Ctrl-C, a kill) gives the samples up to its end, and the fit says whether they
+/// suffice.
+pub fn from_recording(path: &Path) -> Result<Vec<Vec<Sample>>, TuneRobotError> {
+    let recording = Recording::read(path).map_err(Box::new)?;
+    if recording.session.kind != RECORDING_KIND {
+        return Err(TuneRobotError::NotTuning {
+            path: path.to_owned(),
+            kind: recording.session.kind,
+        });
+    }
+    let config = &recording.config;
+    let mut core = Core::new(config, recording.session.start_pose)?;
+    let mut sampler = PwmSampler::new(config);
+    let Ok(_) = run(
+        &mut core,
+        &mut RecordedInputs::of(&recording),
+        &mut [&mut sampler],
+        |_, _| Flow::Continue,
+    );
+    sampler.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::apps::tune::motors::{fit_all, true_models};
+    use crate::recording::Recorder;
+    use ratf_core::config::WorldProfile;
+    use ratf_sim::devices::SimDevices;
+    use ratf_sim::world::Scenario;
+
+    #[test]
+    fn steps_through_the_runtime_identify_the_simulated_motors_and_their_recording_fits_the_same() {
+        let mut world_config = Config::default();
+        world_config.sim.world = WorldProfile::Realistic;
+        world_config.sim.seed = 7;
+        let devices = SimDevices::new(&world_config, &Scenario::new(&world_config)).unwrap();
+        let truth = devices.world().truth().clone();
+        // The team measured the battery with a multimeter.
+        let mut config = world_config.clone();
+        config.motor.battery_voltage_v = truth.battery_voltage_v;
+        let start = config.field.field().start_pose();
+        let path =
+            std::env::temp_dir().join(format!("ratf-tune-runtime-{}.mcap", std::process::id()));
+        let mut recorder = open_recorder(&config, start, RECORDING_KIND, &path).unwrap();
+        let mut core = Core::new(&config, start).unwrap();
+        let plan = StepPlan::default();
+        let stepped = run_steps(
+            &mut core,
+            devices,
+            &plan,
+            &config,
+            &mut [&mut recorder as &mut dyn Tap],
+            || false,
+        )
+        .unwrap();
+        assert!(stepped.finished && !stepped.silent);
+        let path = Recorder::finish(recorder).unwrap();
+        let wheels = stepped.sampler.finish().unwrap();
+        // Every step is sampled: 50 batches a second over the plan (its rests included).
+        let expected = (plan.duration_s() * 50.0) as usize;
+        assert!(
+            wheels.iter().all(|w| w.len().abs_diff(expected) <= 5),
+            "{} samples, expected about {expected}",
+            wheels[0].len()
+        );
+        let fits = fit_all(&wheels).unwrap();
+        for (k, (fit, truth)) in fits
+            .iter()
+            .zip(true_models(&world_config, &truth))
+            .enumerate()
+        {
+            let m = fit.model;
+            let rel = |a: f64, b: f64| (a / b - 1.0).abs();
+            assert!(
+                rel(m.gain_rad_s_per_v, truth.gain_rad_s_per_v) < 0.05,
+                "{k}: {m:?}"
+            );
+            assert!(
+                rel(m.time_constant_s, truth.time_constant_s) < 0.05,
+                "{k}: {m:?}"
+            );
+            assert!(rel(m.dead_zone_v, truth.dead_zone_v) < 0.05, "{k}: {m:?}");
+            assert!(fit.quality.r2 > 0.99, "{k}: {:?}", fit.quality);
         }
-        let now_us = clock.now().as_us();
-        match start_us {
-            None if now_us.saturating_sub(asked_at) as f64 * 1e-6 > FIRST_TELEMETRY_S => {
-                return Err(RobotStepsError::Silent(port.to_owned()));
-            }
-            None => {}
-            Some(start) => {
-                let t_s = now_us.saturating_sub(start) as f64 * 1e-6;
-                let Some(pwm) = plan.pwm_at(&patterns, t_s) else {
-                    let batches = wheels[0].len();
-                    if bursts as f64 > MAX_BURST_SHARE * batches as f64 {
-                        return Err(RobotStepsError::Bursty { bursts, batches });
-                    }
-                    return Ok(wheels);
-                };
-                // A new PWM is written at once; the same one is renewed halfway through its
-                // hold (the Mega's thread resends it every tick meanwhile).
-                let renew = match held.last() {
-                    Some(&(_, last)) if last != pwm => true,
-                    Some(_) => now_us >= renewed_us + HOLD_US / 2,
-                    None => true,
-                };
-                if renew {
-                    if held.last().map(|(_, p)| *p) != Some(pwm) {
-                        held.push((now_us, pwm));
-                    }
-                    renewed_us = now_us;
-                    mega.hold_open_loop(
-                        OpenLoopHold {
-                            pwm,
-                            solenoid_on: false,
-                            until_us: now_us + HOLD_US,
-                        },
-                        clock.now(),
-                    );
-                }
-            }
-        }
-        let message = match rx.recv_timeout(Duration::from_millis(5)) {
-            Ok(message) => message,
-            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
-            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                return Err(RobotStepsError::Gone("its thread ended".to_owned()));
-            }
-        };
-        match message {
-            Message::Input(stamped) => {
-                let Input::Wheels(t) = stamped.input else {
-                    continue;
-                };
-                let arrived_us = stamped.time.as_us();
-                if last_arrival_us.is_some_and(|last| arrived_us < last + BURST_US) {
-                    bursts += 1;
-                }
-                last_arrival_us = Some(arrived_us);
-                if start_us.is_none() {
-                    start_us = Some(arrived_us);
-                    continue;
-                }
-                let (Some(deltas), true) = (t.deltas_ticks, t.period_us > 0) else {
-                    continue;
-                };
-                let pwm = held
-                    .iter()
-                    .rev()
-                    .find(|(since, _)| *since <= t.sampled_at_us)
-                    .map_or([0; 4], |(_, pwm)| *pwm);
-                let period_s = f64::from(t.period_us) * 1e-6;
-                for (k, wheel) in wheels.iter_mut().enumerate() {
-                    wheel.push(Sample {
-                        period_s,
-                        voltage_v: f64::from(pwm[k]) / pwm_max * battery_v,
-                        speed_rad_s: f64::from(deltas[k]) * rad_per_tick / period_s,
-                    });
-                }
-            }
-            Message::Gone { message, .. } => return Err(RobotStepsError::Gone(message)),
-            Message::Link(..) => {}
-        }
+        assert_eq!(from_recording(&path).unwrap(), wheels);
+        let _ = std::fs::remove_file(&path);
+    }
+
+    #[test]
+    fn a_recording_of_another_kind_of_run_is_refused() {
+        let config = Config::default();
+        let start = config.field.field().start_pose();
+        let path =
+            std::env::temp_dir().join(format!("ratf-tune-not-tuning-{}.mcap", std::process::id()));
+        let recorder = open_recorder(&config, start, "round", &path).unwrap();
+        recorder.finish().unwrap();
+        let error = from_recording(&path).unwrap_err();
+        assert!(
+            matches!(&error, TuneRobotError::NotTuning { kind, .. } if kind == "round"),
+            "{error}"
+        );
+        let _ = std::fs::remove_file(&path);
     }
 }
