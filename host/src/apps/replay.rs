@@ -252,6 +252,34 @@ mod tests {
     }
 
     #[test]
+    fn a_round_whose_robot_believes_other_than_its_world_replays_from_the_robot_s_beliefs() {
+        let dir = std::env::temp_dir().join(format!("ratf-replay-beliefs-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("round1.mcap");
+        let world = Config::default();
+        // What `ratf sim --calibrated` does: the robot's beliefs differ from the world's.
+        let mut robot = world.clone();
+        robot.lidar.range_scale = 1.003;
+        let options = RoundOptions::new(1, 1, Policy::Ours);
+        let report = crate::apps::round::run_recorded_live(
+            &world,
+            &robot,
+            &options,
+            &path,
+            &mut [],
+            crate::apps::round::Live::default(),
+            |_| {},
+        )
+        .unwrap();
+        let recording = Recording::read(&path).unwrap();
+        assert_eq!(recording.config.lidar.range_scale, 1.003);
+        let replayed = replay(&recording, None, |_, _| {}).unwrap();
+        assert_eq!(replayed.inputs, report.inputs);
+        assert_eq!(replayed.divergences, 0, "{:?}", replayed.first_divergence);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
     fn a_changed_input_is_reported_as_the_first_divergence() {
         let (path, _) = recorded_round("changed");
         let mut recording = Recording::read(&path).unwrap();

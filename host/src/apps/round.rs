@@ -615,19 +615,30 @@ pub fn run_recorded(
     path: &Path,
     on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
-    run_recorded_live(config, options, path, &mut [], Live::default(), on_event)
+    run_recorded_live(
+        config,
+        config,
+        options,
+        path,
+        &mut [],
+        Live::default(),
+        on_event,
+    )
 }
 
-/// [`run_recorded`] with more taps (the HMI) and a person watching (see [`Live`]).
+/// [`run_recorded`] in the world drawn for `world` with a robot that believes `robot` (as
+/// [`run_in_world`]; the recording holds the robot's beliefs, which replay rebuilds the core
+/// from), with more taps (the HMI) and a person watching (see [`Live`]).
 pub fn run_recorded_live(
-    config: &Config,
+    world: &Config,
+    robot: &Config,
     options: &RoundOptions,
     path: &Path,
     taps: &mut [&mut dyn Tap],
     live: Live<'_>,
     on_event: impl FnMut(&RoundEvent),
 ) -> Result<RoundReport, RoundError> {
-    let applied = options.apply_to(config);
+    let applied = options.apply_to(robot);
     let session = Session {
         kind: "sim".to_owned(),
         config_toml: applied.to_toml_string().map_err(|e| {
@@ -642,7 +653,7 @@ pub fn run_recorded_live(
     let mut recorder = Recorder::create(path, &session).map_err(Box::new)?;
     let mut all: Vec<&mut dyn Tap> = vec![&mut recorder];
     all.extend(taps.iter_mut().map(|tap| &mut **tap as &mut dyn Tap));
-    let report = run_live(config, config, options, &mut all, live, on_event)?;
+    let report = run_live(world, robot, options, &mut all, live, on_event)?;
     recorder.finish().map_err(Box::new)?;
     Ok(report)
 }

@@ -477,6 +477,12 @@ struct SimArgs {
     /// configuration's `[sim] world`, `ideal` unless set).
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
+    /// Calibrate first, as a team does on the day (`ratf calibrate`'s drive with tape
+    /// measures in this seed's world), and run the round with the calibrated beliefs. The
+    /// world is drawn around `--config`: give the file as written, not a calibrated one
+    /// (that would draw a new hall around the calibration).
+    #[arg(long, conflicts_with = "serve_pty")]
+    calibrated: bool,
     /// Serve the world in real time to `ratf run` instead: the simulated Mega and X4 as
     /// pseudo-terminals (symlinks DIR/mega and DIR/lidar), the mock server on UDP
     /// 127.0.0.1 (its port printed). The world starts when DIR/mega is opened and ends a
@@ -1190,8 +1196,22 @@ fn sim_round(
     }
     let say = |t_s: f64, text: &str| println!("{t_s:7.2} s  {text}");
     let recording_path = args.out.join(format!("{stem}.mcap"));
+    let beliefs = if args.calibrated {
+        let (beliefs, refused) =
+            ratf_host::apps::calibrate::beliefs(&options.apply_to(&config), true)?;
+        match refused {
+            Some(error) => println!(
+                "calibration refused ({error}): the robot keeps the configuration as written"
+            ),
+            None => println!("calibrated: the robot believes the calibration drive's fit"),
+        }
+        beliefs
+    } else {
+        config.clone()
+    };
     let report = round::run_recorded_live(
         &config,
+        &beliefs,
         &options,
         &recording_path,
         &mut taps,
