@@ -19,6 +19,7 @@ use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
+use crate::planning::our_map::our_graph;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
 use crate::planning::tasks::{self, MAX_PARTS, Model, PartState, Place, Policy, State};
 use crate::referee::snapshot::ServerSnapshot;
@@ -273,11 +274,16 @@ impl std::fmt::Debug for RouteNavigator {
 
 impl RouteNavigator {
     /// A navigator for the robot in `config` driving with `preset`: ours (the route planner
-    /// and `control::follower`) or the original's (its routes and `control::original`).
+    /// on our road map, `planning::our_map`, and `control::follower`) or the original's (its
+    /// routes on its graph and `control::original`).
     pub fn new(config: &Config, preset: Driving) -> Self {
         let field = Field::competition();
+        let graph = match preset {
+            Driving::Ours => our_graph(&field, config.robot.footprint_length_m),
+            Driving::Original => field.waypoints().clone(),
+        };
         Self {
-            map: RoadMap::new(field.waypoints().clone()),
+            map: RoadMap::new(graph),
             follower: Box::new(Follower::new(config)),
             config: config.clone(),
             field,

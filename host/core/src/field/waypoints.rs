@@ -166,18 +166,44 @@ impl WaypointGraph {
                 position: Vec2::new(x / 1000.0, y / 1000.0),
             })
             .collect();
-        let position = |id: u8| {
+        let pairs: Vec<(WaypointId, WaypointId)> = EDGES
+            .iter()
+            .map(|&(a, b)| (WaypointId(a), WaypointId(b)))
+            .collect();
+        Self::from_parts(waypoints, &pairs)
+    }
+
+    /// The same edges with the vertices of `moved` at new positions (m), the edge lengths
+    /// measured again; ids not in the graph are ignored.
+    pub fn with_moved(&self, moved: &[(WaypointId, Vec2)]) -> Self {
+        let waypoints = self
+            .waypoints
+            .iter()
+            .map(|w| Waypoint {
+                id: w.id,
+                position: moved
+                    .iter()
+                    .find(|(id, _)| *id == w.id)
+                    .map_or(w.position, |(_, p)| *p),
+            })
+            .collect();
+        let pairs: Vec<(WaypointId, WaypointId)> = self.edges.iter().map(|e| (e.a, e.b)).collect();
+        Self::from_parts(waypoints, &pairs)
+    }
+
+    fn from_parts(waypoints: Vec<Waypoint>, pairs: &[(WaypointId, WaypointId)]) -> Self {
+        let position = |id: WaypointId| {
             waypoints
                 .iter()
-                .find(|w| w.id.0 == id)
+                .find(|w| w.id == id)
                 .map(|w| w.position)
                 .unwrap_or(Vec2::ZERO)
         };
-        let edges: Vec<Edge> = EDGES
+        let edges: Vec<Edge> = pairs
             .iter()
             .map(|&(a, b)| Edge {
-                a: WaypointId(a),
-                b: WaypointId(b),
+                a,
+                b,
                 length_m: position(a).distance(position(b)),
             })
             .collect();
