@@ -15,9 +15,12 @@
 //!   being opened (a replug within that time carries on), or after the time limit.
 //! - [`Unplug`] (`--unplug`): the world pulls a device's USB cable out for a while (issue
 //!   17): its pseudo-terminal goes (the symlink removed, the master closed, its bytes
-//!   dropped; a Mega loses its power, a lidar stops scanning), and a new one appears at the
-//!   same name later. A Mega opened again resets as on power-up ([`MEGA_BOOT_US`] later its
-//!   `r`). The world's own unplug does not count as a hang-up.
+//!   dropped), and a new one appears at the same name later. The Mega runs on from the
+//!   battery (hardware/README.md: the battery feeds the motors and the Mega), so its own
+//!   watchdog stops the motors and lets the magnet go 100 ms after the host's last
+//!   reference; opened again, it resets as on power-up (DTR; [`MEGA_BOOT_US`] later its
+//!   `r`). The X4 is powered by its USB cable: it stops, and scans again only after a new
+//!   start command. The world's own unplug does not count as a hang-up.
 
 use std::fs::File;
 use std::io::{ErrorKind, Read, Write};
@@ -419,7 +422,6 @@ pub fn serve(
                             // Its bytes in flight are lost with it.
                             written = Decoder::new();
                             batch_has_telemetry = false;
-                            world.reset_mega(None);
                         }
                         ServedDevice::Lidar => {
                             lidar = None;

@@ -506,7 +506,8 @@ struct SimArgs {
     wait_for_robot_s: f64,
     /// With --serve-pty: the world pulls this device's USB cable out (issue 17's unplug and
     /// replug): at --unplug-at-s its pseudo-terminal goes (symlink removed, bytes dropped;
-    /// a Mega loses power), --unplug-for-s later a new one appears at the same name.
+    /// the Mega runs on from the battery, the X4 stops), --unplug-for-s later a new one
+    /// appears at the same name (a Mega opened again resets).
     #[arg(long, value_enum, requires_all = ["serve_pty", "unplug_at_s"])]
     unplug: Option<UnplugDevice>,
     /// With --unplug: when, s of world time (0: the robot opened DIR/mega).
