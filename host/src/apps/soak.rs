@@ -295,6 +295,7 @@ fn one_round(
         server_port: 0,
         limit_s: ROUND_LIMIT_S,
         wait_for_robot_s: WAIT_FOR_ROBOT_S,
+        unplug: None,
     };
     let robot_shared = Shared::new();
     let recording = options

@@ -446,6 +446,15 @@ struct RefereeArgs {
     config: Option<PathBuf>,
 }
 
+/// A device whose cable `ratf sim --serve-pty --unplug` pulls out.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum UnplugDevice {
+    /// The Arduino Mega (DIR/mega).
+    Mega,
+    /// The X4 lidar (DIR/lidar).
+    Lidar,
+}
+
 #[derive(Debug, Args)]
 struct SimArgs {
     /// The round: 1 (BBBB), 2 (BBGG in any order), 3 (RGGB in any order).
@@ -495,6 +504,18 @@ struct SimArgs {
     /// With --serve-pty: give up if nothing opens DIR/mega within this many seconds.
     #[arg(long, default_value_t = 120.0, requires = "serve_pty")]
     wait_for_robot_s: f64,
+    /// With --serve-pty: the world pulls this device's USB cable out (issue 17's unplug and
+    /// replug): at --unplug-at-s its pseudo-terminal goes (symlink removed, bytes dropped;
+    /// the Mega runs on from the battery, the X4 stops), --unplug-for-s later a new one
+    /// appears at the same name (a Mega opened again resets).
+    #[arg(long, value_enum, requires_all = ["serve_pty", "unplug_at_s"])]
+    unplug: Option<UnplugDevice>,
+    /// With --unplug: when, s of world time (0: the robot opened DIR/mega).
+    #[arg(long, value_name = "S", requires = "unplug")]
+    unplug_at_s: Option<f64>,
+    /// With --unplug: for how long, s (0.2 to 10; default 1).
+    #[arg(long, value_name = "S", requires = "unplug")]
+    unplug_for_s: Option<f64>,
     /// Serve the operator's web page on this address (HOST:PORT; `--hmi` alone:
     /// 127.0.0.1:8080); the URL with the control token is printed. After the round the page
     /// stays up: choose another round there, or press Ctrl-C.
@@ -1985,6 +2006,18 @@ fn serve_pty_command(args: &SimArgs) -> anyhow::Result<()> {
         server_port: args.server_port,
         limit_s: ROUND_LIMIT_S,
         wait_for_robot_s: args.wait_for_robot_s,
+        unplug: match (args.unplug, args.unplug_at_s) {
+            (Some(device), Some(at_s)) => Some(serve_pty::Unplug::new(
+                match device {
+                    UnplugDevice::Mega => serve_pty::ServedDevice::Mega,
+                    UnplugDevice::Lidar => serve_pty::ServedDevice::Lidar,
+                },
+                at_s,
+                args.unplug_for_s.unwrap_or(1.0),
+                ROUND_LIMIT_S,
+            )?),
+            _ => None,
+        },
     };
     let quit = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
@@ -2024,6 +2057,16 @@ fn serve_pty_command(args: &SimArgs) -> anyhow::Result<()> {
                 if *total == 1 { "" } else { "s" }
             ),
             ServeEvent::HungUp { t_s } => println!("{t_s:7.2} s  the Mega's port was closed"),
+            ServeEvent::Unplugged { t_s, device } => {
+                println!("{t_s:7.2} s  unplugged: the {device}'s USB cable is out")
+            }
+            ServeEvent::Replugged { t_s, device, path } => println!(
+                "{t_s:7.2} s  replugged: the {device}'s USB cable is back at {}",
+                path.display()
+            ),
+            ServeEvent::Reopened { t_s } => {
+                println!("{t_s:7.2} s  the Mega's port was opened again: the Mega boots")
+            }
         },
     )?;
     println!(

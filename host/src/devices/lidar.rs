@@ -16,7 +16,8 @@
 //! - **Spin-up**: after the start command the X4 may stay silent while its motor comes up
 //!   to speed; if no revolution arrives within `[link] lidar_spinup_timeout_ms` (or the
 //!   stream stops that long), the port is reopened and the command sent again.
-//! - **Reconnection**: a read error or a vanished port reports [`Input::DeviceFault`], and
+//! - **Reconnection**: a read error or a vanished port reports [`Input::DeviceFault`] with
+//!   `reconnecting` (the core holds the robot still until scans come again), and
 //!   the thread reopens the port every `[link] reconnect_period_ms`, sending the start
 //!   command again if the core had asked for it. Away longer than `[link] give_up_after_s`:
 //!   [`Message::Gone`].
@@ -222,6 +223,7 @@ fn run(
                 Input::DeviceFault {
                     device: DeviceKind::Lidar,
                     message: format!("{}: {reason}; reconnecting", settings.port),
+                    reconnecting: true,
                 },
             )),
         ) && report(
@@ -272,9 +274,11 @@ fn session(
                      and on again, and replace it if the error stays",
                     settings.port, health.error_code
                 );
+                // Not a reconnection: the robot stays stopped until the operator resumes.
                 let fault = Input::DeviceFault {
                     device: DeviceKind::Lidar,
                     message,
+                    reconnecting: false,
                 };
                 if !report(tx, Message::Input(Stamped::new(clock.now(), fault))) {
                     return ("the loop ended".to_owned(), delivered);

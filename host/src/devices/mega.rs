@@ -9,8 +9,8 @@
 //! - **Opening resets the board** (DTR): nothing is written until the Mega has spoken (its
 //!   `r` or a telemetry batch) or `[link] mega_sync_timeout_ms` has passed, so the
 //!   bootloader never sees our frames.
-//! - **Unplug**: a read error or a vanished port reports [`Input::DeviceFault`] (the core
-//!   stops), drops the write half, and the thread reopens the port every
+//! - **Unplug**: a read error or a vanished port reports [`Input::DeviceFault`] with
+//!   `reconnecting` (the core holds the robot still until the Mega streams again), drops the write half, and the thread reopens the port every
 //!   `[link] reconnect_period_ms` and resynchronises ([`MegaLink::reset`], wait for `r`)
 //!   without restarting `ratf`. Away longer than `[link] give_up_after_s`: [`Message::Gone`].
 //! - **Host watchdog** (§10.2, on the age of the last reference): if the core produced no
@@ -395,6 +395,7 @@ impl MegaThread {
                     Input::DeviceFault {
                         device: DeviceKind::Mega,
                         message: format!("{}: {reason}; reconnecting", self.settings.port),
+                        reconnecting: true,
                     },
                 )),
             ) && report(

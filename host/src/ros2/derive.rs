@@ -229,7 +229,9 @@ impl Deriver {
                 }
             }
             Input::Imu(sample) => out.push(Message::Imu(Box::new(self.imu(sample)))),
-            Input::DeviceFault { device, message } => {
+            Input::DeviceFault {
+                device, message, ..
+            } => {
                 self.faults.retain(|(d, _)| d != device);
                 self.faults.push((*device, message.clone()));
             }

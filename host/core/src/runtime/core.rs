@@ -114,12 +114,22 @@ impl Core {
                     .on_datagram(now_us, datagram, &mut outputs.events)
             }
             Input::Operator(command) => self.on_operator(now_us, command, &mut outputs),
-            Input::DeviceFault { device, message } => {
-                self.stopped = true;
-                outputs.wheels = Some(WheelCommand::STOP);
+            Input::DeviceFault {
+                device,
+                message,
+                reconnecting,
+            } => {
+                // A port being reopened holds the robot until the device speaks again (a
+                // replug goes on with the round); any other fault stops it for good.
+                let held = *reconnecting && self.silence.lost(*device, now_us);
+                if !held {
+                    self.stopped = true;
+                    outputs.wheels = Some(WheelCommand::STOP);
+                }
                 outputs.events.push(Event::DeviceFault {
                     device: *device,
                     message: message.clone(),
+                    reconnecting: held,
                 });
             }
         }
@@ -432,6 +442,7 @@ mod tests {
             Input::DeviceFault {
                 device: super::super::DeviceKind::Mega,
                 message: "port gone".into(),
+                reconnecting: false,
             },
         ));
         assert_eq!(
@@ -454,11 +465,120 @@ mod tests {
             Input::DeviceFault {
                 device: super::super::DeviceKind::Lidar,
                 message: "port gone".into(),
+                reconnecting: false,
             },
         ));
         assert_eq!(fault.wheels, Some(WheelCommand::STOP));
         for k in 0..10 {
             assert!(!moving(&core.step(&at(47 + 20 * k, Input::HostTick))));
+        }
+        // Not a port being reopened (a health error): data flowing again does not undo it.
+        for k in 0..10 {
+            let ms = 250 + 20 * k;
+            core.step(&telemetry(ms));
+            core.step(&scan(ms, 100));
+            assert!(!moving(&core.step(&at(ms + 4, Input::HostTick))));
+        }
+        assert!(core.status().stopped);
+    }
+
+    /// Issue 17, a USB unplug and replug: a device whose thread reports its port lost and
+    /// reopens it held the robot for good (an operator stop nobody lifts in `ratf run`).
+    /// Now the robot holds still from the fault (wheels at the next tick, the magnet 100 ms
+    /// later) until the device speaks again, then the mission drives on; the Mega is back
+    /// with its telemetry, not its reset frame alone.
+    #[test]
+    fn a_lost_port_holds_the_robot_until_its_device_speaks_again() {
+        for lost in [DeviceKind::Mega, DeviceKind::Lidar] {
+            let mut core = core();
+            core.step(&at(5, Input::MegaReset));
+            core.step(&at(
+                10,
+                Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
+            ));
+            let mut drove = false;
+            for k in 0..20u64 {
+                let ms = 20 * k + 13;
+                core.step(&telemetry(ms));
+                if k % 7 == 0 {
+                    core.step(&scan(ms, 100));
+                }
+                drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
+            }
+            assert!(drove, "{lost}: the mission never moved");
+            let fault = core.step(&at(
+                400,
+                Input::DeviceFault {
+                    device: lost,
+                    message: "port gone".into(),
+                    reconnecting: true,
+                },
+            ));
+            assert!(
+                matches!(
+                    fault.events.as_slice(),
+                    [Event::DeviceFault {
+                        reconnecting: true,
+                        ..
+                    }]
+                ),
+                "{lost}: {:?}",
+                fault.events
+            );
+            // Away for a second: the other device keeps streaming, the lost one says nothing.
+            let mut events = Vec::new();
+            for k in 20..70u64 {
+                let ms = 20 * k + 13;
+                if lost != DeviceKind::Mega {
+                    core.step(&telemetry(ms));
+                }
+                if lost != DeviceKind::Lidar && k % 7 == 0 {
+                    core.step(&scan(ms, 100));
+                }
+                let out = core.step(&at(ms + 4, Input::HostTick));
+                events.extend(out.events.iter().cloned());
+                assert!(
+                    !moving(&out),
+                    "{lost}: drove {} ms after the fault",
+                    ms - 396
+                );
+                if ms + 4 >= 400 + 20 + 100 {
+                    assert!(
+                        !out.wheels.unwrap().solenoid_on,
+                        "{lost}: magnet at {ms} ms"
+                    );
+                }
+            }
+            assert!(
+                !events
+                    .iter()
+                    .any(|e| matches!(e, Event::DeviceSilent { .. } | Event::DeviceBack { .. })),
+                "{lost}: the fault is the event, and it is not back: {events:?}"
+            );
+            assert!(!core.status().stopped, "the hold is not an operator stop");
+            // Back: the Mega resets and streams, the lidar is started again and scans.
+            if lost == DeviceKind::Mega {
+                core.step(&at(1_410, Input::MegaReset));
+                let out = core.step(&at(1_417, Input::HostTick));
+                assert!(!moving(&out) && out.events.is_empty(), "{:?}", out.events);
+            }
+            let mut back = Vec::new();
+            let mut drives = false;
+            for k in 71..90u64 {
+                let ms = 20 * k + 13;
+                core.step(&telemetry(ms));
+                if k % 7 == 0 {
+                    core.step(&scan(ms, 100));
+                }
+                let out = core.step(&at(ms + 4, Input::HostTick));
+                back.extend(out.events.iter().cloned());
+                drives |= moving(&out);
+            }
+            assert!(
+                back.contains(&Event::DeviceBack { device: lost }),
+                "{lost}: {back:?}"
+            );
+            assert!(drives, "{lost}: the mission did not go on");
         }
     }
 

@@ -124,6 +124,10 @@ pub enum Event {
         device: DeviceKind,
         /// What happened.
         message: String,
+        /// Its thread is reopening the port: the robot holds still until the device speaks
+        /// again ([`DeviceBack`](Self::DeviceBack)) instead of stopping for good.
+        #[serde(default)]
+        reconnecting: bool,
     },
 }
 
@@ -266,9 +270,18 @@ impl Event {
                  speaks again (check its cable and power if this lasts)"
             ),
             Self::DeviceBack { device } => format!("{device} speaks again: going on"),
-            Self::DeviceFault { device, message } => {
-                format!("{device} failed: {message}; stopped")
-            }
+            Self::DeviceFault {
+                device,
+                message,
+                reconnecting: true,
+            } => format!(
+                "{device} lost: {message}; holding still, magnet off, until it speaks again"
+            ),
+            Self::DeviceFault {
+                device,
+                message,
+                reconnecting: false,
+            } => format!("{device} failed: {message}; stopped"),
         }
     }
 }

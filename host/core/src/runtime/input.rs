@@ -136,12 +136,19 @@ pub enum Input {
     },
     /// An operator's command.
     Operator(OperatorCommand),
-    /// A device failed (port gone, timeout): the core stops driving blind.
+    /// A device failed (port gone, timeout, a health error): the core stops driving blind.
     DeviceFault {
         /// Which device.
         device: DeviceKind,
         /// What happened, as the device put it.
         message: String,
+        /// The device's thread is reopening its port (an unplug, a read error): the core
+        /// holds the robot still, magnet off, until the device speaks again, and the
+        /// mission goes on (a USB replug, issue 17). `false` (a lidar's health error, and
+        /// every fault recorded before this field existed): stopped until the operator
+        /// resumes.
+        #[serde(default)]
+        reconnecting: bool,
     },
 }
 

@@ -4,10 +4,11 @@
 //! point counts as silence: in a walled field the X4 always sees something, so an empty
 //! revolution is a blinded or failing lidar, and the robot would drive on odometry alone.
 //!
-//! The devices report a port that vanished ([`super::Input::DeviceFault`], which stops the
-//! robot for good), but a device that stays plugged in and stops sending (an X4 whose motor
-//! stalled, a Mega that hangs or reboots, a cable that only carries power) reaches the core
-//! only as silence. Before this guard the core drove on wheel odometry until the lidar
+//! The devices report a port that vanished ([`super::Input::DeviceFault`] with
+//! `reconnecting`, which holds the robot the same way from that instant until the device
+//! speaks again, [`SilenceGuard::lost`]), but a device that stays plugged in and stops
+//! sending (an X4 whose motor stalled, a Mega that hangs or reboots, a cable that only
+//! carries power) reaches the core only as silence. Before this guard the core drove on wheel odometry until the lidar
 //! thread's `[link] lidar_spinup_timeout_ms` (5 s) or for ever in the simulator (issue 17).
 //!
 //! The hold is not latched: a lidar dropout or a Mega reset is over when data flows again,
@@ -50,6 +51,9 @@ struct Watch {
     device: DeviceKind,
     limit_us: u64,
     last_us: Option<u64>,
+    /// When its port was lost (its thread reconnecting), µs: silent from then until it
+    /// speaks again, whatever its limit.
+    lost_us: Option<u64>,
     silent: bool,
 }
 
@@ -59,6 +63,7 @@ impl Watch {
             device,
             limit_us,
             last_us: None,
+            lost_us: None,
             silent: false,
         }
     }
@@ -66,10 +71,13 @@ impl Watch {
     /// How long the device has been silent past its limit (`None` while it speaks); an
     /// event on each change.
     fn check(&mut self, now_us: u64, events: &mut Vec<Event>) -> Option<u64> {
-        let last_us = self.last_us?;
-        let over_us = now_us
-            .saturating_sub(last_us)
-            .checked_sub(self.limit_us + 1);
+        let over_us = match (self.lost_us, self.last_us) {
+            (Some(lost_us), _) => Some(now_us.saturating_sub(lost_us)),
+            (None, Some(last_us)) => now_us
+                .saturating_sub(last_us)
+                .checked_sub(self.limit_us + 1),
+            (None, None) => None,
+        };
         let silent = over_us.is_some();
         if silent != self.silent {
             self.silent = silent;
@@ -114,14 +122,39 @@ impl SilenceGuard {
 
     /// A sensor input arrived at `now_us`. The Mega's watch is armed by its first telemetry
     /// batch (its reset frame alone comes before it streams), the lidar's by its first scan
-    /// with a point; an empty scan is silence.
+    /// with a point; an empty scan is silence. A lost device is back with the same data:
+    /// the Mega with a telemetry batch (odometry flows again, not its reset frame alone),
+    /// the lidar with a scan with a point.
     pub fn heard(&mut self, input: &Input, now_us: u64) {
         match input {
-            Input::Scan(scan) if !scan.points.is_empty() => self.lidar.last_us = Some(now_us),
-            Input::Wheels(_) => self.mega.last_us = Some(now_us),
+            Input::Scan(scan) if !scan.points.is_empty() => {
+                self.lidar.last_us = Some(now_us);
+                self.lidar.lost_us = None;
+            }
+            Input::Wheels(_) => {
+                self.mega.last_us = Some(now_us);
+                self.mega.lost_us = None;
+            }
             Input::MegaReset if self.mega.last_us.is_some() => self.mega.last_us = Some(now_us),
             _ => {}
         }
+    }
+
+    /// `device`'s port was lost at `now_us` (its thread reports a fault and reconnects): it
+    /// holds the robot as a silent device does, from now (wheels at the next tick, the
+    /// magnet [`MAGNET_OFF_AFTER_US`] later), until it speaks again ([`Self::heard`]). The
+    /// fault is the event: no [`Event::DeviceSilent`] follows, [`Event::DeviceBack`] does.
+    /// False for a device the guard does not watch (the IMU, the server).
+    pub fn lost(&mut self, device: DeviceKind, now_us: u64) -> bool {
+        let watch = match device {
+            DeviceKind::Lidar => &mut self.lidar,
+            DeviceKind::Mega => &mut self.mega,
+            DeviceKind::Imu | DeviceKind::Referee => return false,
+        };
+        // A second fault while lost (a failed reopen) keeps the first instant.
+        watch.lost_us.get_or_insert(now_us);
+        watch.silent = true;
+        true
     }
 
     /// What the robot must hold at `now_us`; events as devices fall silent and come back.

@@ -133,7 +133,9 @@ impl<'a> Session<'a> {
                 Input::MegaReset if self.telemetry_seen => self.mega_window.on_reset(),
                 Input::Scan(scan) => self.lidar_window.on_scan(&scan, time.as_us(), &self.search),
                 Input::Imu(sample) => self.imu_window.on_sample(&sample, time.as_us()),
-                Input::DeviceFault { device, message } => self.fault(device, &message),
+                Input::DeviceFault {
+                    device, message, ..
+                } => self.fault(device, &message),
                 _ => {}
             },
             Message::Link(DeviceKind::Imu, LinkState::Reconnecting) => self.imu_window.on_lost(),

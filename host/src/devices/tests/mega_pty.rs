@@ -215,7 +215,7 @@ fn an_unplugged_mega_is_reopened_and_resynchronised_without_restarting() {
         |b| {
             b.link() == Some(LinkState::Reconnecting)
                 && b.inputs_since(unplugged).any(|i| {
-                    matches!(i, Input::DeviceFault { device: DeviceKind::Mega, message }
+                    matches!(i, Input::DeviceFault { device: DeviceKind::Mega, message, reconnecting: true }
                         if message.starts_with(&format!("{port}: ")) && message.ends_with("reconnecting"))
                 })
         },

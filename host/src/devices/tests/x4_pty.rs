@@ -87,6 +87,7 @@ impl LidarBench {
                     Input::DeviceFault {
                         device: DeviceKind::Lidar,
                         message,
+                        ..
                     } => Some(message.as_str()),
                     _ => None,
                 },
