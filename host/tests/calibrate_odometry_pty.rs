@@ -9,10 +9,9 @@ mod common;
 use std::path::Path;
 use std::time::Duration;
 
-use common::{Spawned, TempDir, one_at_a_time, read, robot_config, serve};
+use common::{Spawned, TempDir, float, one_at_a_time, read, robot_config, run_ok, serve};
 use ratf_core::config::{Config, WorldProfile};
 use ratf_sim::truth::WorldTruth;
-use serde_json::Value;
 
 /// The served world's beliefs (no `--config`: the defaults) and its truth (the same draw
 /// the served world makes from its seed and profile).
@@ -37,21 +36,6 @@ fn tape_measures(config: &Config, truth: &WorldTruth) -> Vec<String> {
     tape
 }
 
-/// `ratf ARGS` to its end within `timeout`, which must be 0; what it printed.
-fn run_ok(args: &[&str], stderr: &Path, timeout: Duration) -> Spawned {
-    let mut child = Spawned::start(args, stderr);
-    let status = child.wait_exit(timeout);
-    assert_eq!(
-        status.code(),
-        Some(0),
-        "ratf {}\n{}\nstderr:\n{}",
-        args.join(" "),
-        child.seen.join("\n"),
-        read(stderr)
-    );
-    child
-}
-
 /// `path` with the robot's ports and server port taken from `devices` (another served
 /// world's robot file), written to `to`.
 fn with_devices(path: &Path, devices: &Path, to: &Path) {
@@ -61,12 +45,6 @@ fn with_devices(path: &Path, devices: &Path, to: &Path) {
         file.insert(section.to_owned(), devices[section].clone());
     }
     std::fs::write(to, toml::to_string(&file).expect("TOML")).expect("config");
-}
-
-fn float(value: &Value, key: &str) -> f64 {
-    value[key]
-        .as_f64()
-        .unwrap_or_else(|| panic!("{key} in {value}"))
 }
 
 #[test]

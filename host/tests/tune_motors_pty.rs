@@ -5,35 +5,12 @@
 
 mod common;
 
-use std::path::Path;
 use std::time::Duration;
 
-use common::{Spawned, TempDir, one_at_a_time, read, robot_config, serve};
+use common::{TempDir, float, one_at_a_time, robot_config, run_ok, serve};
 use ratf_core::config::{Config, WorldProfile};
 use ratf_host::apps::tune::motors::true_models;
 use ratf_sim::truth::WorldTruth;
-use serde_json::Value;
-
-/// `ratf ARGS` to its end within `timeout`, which must be 0; what it printed.
-fn run_ok(args: &[&str], stderr: &Path, timeout: Duration) -> Spawned {
-    let mut child = Spawned::start(args, stderr);
-    let status = child.wait_exit(timeout);
-    assert_eq!(
-        status.code(),
-        Some(0),
-        "ratf {}\n{}\nstderr:\n{}",
-        args.join(" "),
-        child.seen.join("\n"),
-        read(stderr)
-    );
-    child
-}
-
-fn float(value: &Value, key: &str) -> f64 {
-    value[key]
-        .as_f64()
-        .unwrap_or_else(|| panic!("{key} in {value}"))
-}
 
 #[test]
 fn the_steps_on_the_served_devices_identify_the_true_motors_and_their_recording_fits_the_same() {

@@ -188,3 +188,25 @@ pub fn robot_config(dir: &Path, lidar: &Path, port: u16) -> PathBuf {
     std::fs::write(&path, text).expect("config");
     path
 }
+
+/// `ratf ARGS` to its end within `timeout`, which must be 0; what it printed.
+pub fn run_ok(args: &[&str], stderr: &Path, timeout: Duration) -> Spawned {
+    let mut child = Spawned::start(args, stderr);
+    let status = child.wait_exit(timeout);
+    assert_eq!(
+        status.code(),
+        Some(0),
+        "ratf {}\n{}\nstderr:\n{}",
+        args.join(" "),
+        child.seen.join("\n"),
+        read(stderr)
+    );
+    child
+}
+
+/// The number at `key` of a JSON object (a test fails when it is not one).
+pub fn float(value: &Value, key: &str) -> f64 {
+    value[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} in {value}"))
+}

@@ -490,22 +490,7 @@ mod tests {
     #[test]
     fn a_lost_port_holds_the_robot_until_its_device_speaks_again() {
         for lost in [DeviceKind::Mega, DeviceKind::Lidar] {
-            let mut core = core();
-            core.step(&at(5, Input::MegaReset));
-            core.step(&at(
-                10,
-                Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
-            ));
-            let mut drove = false;
-            for k in 0..20u64 {
-                let ms = 20 * k + 13;
-                core.step(&telemetry(ms));
-                if k % 7 == 0 {
-                    core.step(&scan(ms, 100));
-                }
-                drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
-            }
-            assert!(drove, "{lost}: the mission never moved");
+            let mut core = driving_until_400_ms(lost);
             let fault = core.step(&at(
                 400,
                 Input::DeviceFault {
@@ -582,6 +567,28 @@ mod tests {
         }
     }
 
+    /// A core whose round started (four blue parts) and whose Mega and lidar streamed until
+    /// 400 ms, the mission driving by then.
+    fn driving_until_400_ms(label: impl std::fmt::Display) -> Core {
+        let mut core = core();
+        core.step(&at(5, Input::MegaReset));
+        core.step(&at(
+            10,
+            Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
+        ));
+        let mut drove = false;
+        for k in 0..20u64 {
+            let ms = 20 * k + 13;
+            core.step(&telemetry(ms));
+            if k % 7 == 0 {
+                core.step(&scan(ms, 100));
+            }
+            drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
+        }
+        assert!(drove, "{label}: the mission never moved");
+        core
+    }
+
     fn telemetry(ms: u64) -> Stamped {
         at(
             ms,
@@ -633,23 +640,8 @@ mod tests {
             (DeviceKind::Lidar, true),
             (DeviceKind::Mega, false),
         ] {
-            let mut core = core();
-            core.step(&at(5, Input::MegaReset));
-            core.step(&at(
-                10,
-                Input::Operator(OperatorCommand::ForceStart { parts: [BLUE; 4] }),
-            ));
             // Both devices stream until 400 ms; the mission drives.
-            let mut drove = false;
-            for k in 0..20u64 {
-                let ms = 20 * k + 13;
-                core.step(&telemetry(ms));
-                if k % 7 == 0 {
-                    core.step(&scan(ms, 100));
-                }
-                drove |= moving(&core.step(&at(ms + 4, Input::HostTick)));
-            }
-            assert!(drove, "{silent}: the mission never moved");
+            let mut core = driving_until_400_ms(silent);
             // From 400 ms on, one of them says nothing.
             let limit_ms = match silent {
                 DeviceKind::Lidar => 286,

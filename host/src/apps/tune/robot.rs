@@ -346,7 +346,7 @@ pub fn from_recording(path: &Path) -> Result<Vec<Vec<Sample>>, TuneRobotError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::apps::tune::motors::{fit_all, true_models};
+    use crate::apps::tune::motors::{assert_recovers_within_5_percent, true_models};
     use crate::recording::Recorder;
     use ratf_core::config::WorldProfile;
     use ratf_sim::devices::SimDevices;
@@ -387,25 +387,7 @@ mod tests {
             "{} samples, expected about {expected}",
             wheels[0].len()
         );
-        let fits = fit_all(&wheels).unwrap();
-        for (k, (fit, truth)) in fits
-            .iter()
-            .zip(true_models(&world_config, &truth))
-            .enumerate()
-        {
-            let m = fit.model;
-            let rel = |a: f64, b: f64| (a / b - 1.0).abs();
-            assert!(
-                rel(m.gain_rad_s_per_v, truth.gain_rad_s_per_v) < 0.05,
-                "{k}: {m:?}"
-            );
-            assert!(
-                rel(m.time_constant_s, truth.time_constant_s) < 0.05,
-                "{k}: {m:?}"
-            );
-            assert!(rel(m.dead_zone_v, truth.dead_zone_v) < 0.05, "{k}: {m:?}");
-            assert!(fit.quality.r2 > 0.99, "{k}: {:?}", fit.quality);
-        }
+        assert_recovers_within_5_percent(&wheels, &true_models(&world_config, &truth));
         assert_eq!(from_recording(&path).unwrap(), wheels);
         let _ = std::fs::remove_file(&path);
     }
