@@ -1,10 +1,11 @@
-//! The part search (`ratf_core::mission::search`) in the simulated world, on the fault bench's
-//! tuning seed 4: in round 1 the part leaves the magnet (a slip, or a Mega reset that cuts its
-//! current) at 15.2 s, on the way from incoming slot 2, as the robot turns at 1.3 rad/s. A creep
-//! straight on from where the robot stopped passed 7 cm beside the part, gave it up and then
-//! pushed against it on the next legs (2 points of 4); looking where the part was last held
-//! finds it. Realistic world, each robot calibrated first, as `ratf bench faults --seeds 1
-//! --first-seed 4 --calibrated --only part_slip,mega_reset` runs it.
+//! The part search (`ratf_core::mission::search`) in the simulated world, on the fault
+//! bench's tuning seeds. Seed 4: in round 1 the part leaves the magnet (a slip, or a Mega
+//! reset that cuts its current) at 15.2 s, on the way from incoming slot 2, as the robot
+//! turns at 1.3 rad/s. A creep straight on from where the robot stopped passed 7 cm beside
+//! the part, gave it up and then pushed against it on the next legs (2 points of 4); looking
+//! where the part was last held finds it. Seed 75: see its test. Realistic world, each robot
+//! calibrated first, as `ratf bench faults --seeds 1 --first-seed 4 --calibrated --only
+//! part_slip,mega_reset` runs it.
 
 use ratf_core::config::{Config, WorldProfile};
 use ratf_host::apps::fault_bench::{Injection, bench};
@@ -25,4 +26,23 @@ fn a_part_lost_while_the_robot_turns_is_found_and_every_round_of_seed_4_scores_f
         assert_eq!(row.full_score_rate_by_round, [1.0; 3], "{row:?}");
         assert_eq!(row.given_up, 0, "{row:?}");
     }
+}
+
+/// Tuning seed 75, round 1: a Mega reset at 27.3 s cuts the magnet on the way from incoming
+/// slot 3; the part falls, and the first look's switch closes on it beside the magnet's
+/// centre. Gripped there (as before the centring), it met a divider of outgoing slot 3 and
+/// the carry pushed there until it gave the action up, with the part still on the magnet
+/// for the next one (2 points of 4). Centred on the plate first, it is placed; every round
+/// of the seed scores fully.
+#[test]
+fn a_part_found_beside_the_magnet_after_a_mega_reset_is_centred_and_placed() {
+    let mut config = Config::default();
+    config.sim.world = WorldProfile::Realistic;
+    let injections = [Injection::One(FaultKind::MegaReset)];
+    let result = bench(&config, 75..=75, &injections, true, |_| {}).expect("the bench runs");
+    assert_eq!(result.fault_free_full_score_rate, 1.0);
+    let row = &result.rows[0];
+    assert_eq!(row.injected, 3, "{row:?}");
+    assert_eq!(row.full_score_rate_by_round, [1.0; 3], "{row:?}");
+    assert_eq!(row.given_up, 0, "{row:?}");
 }

@@ -16,7 +16,7 @@
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | the part fell off the magnet: look for it (regripping) |
-//! | regripping | the switch closed and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
+//! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
@@ -103,7 +103,7 @@ pub struct MissionConfig {
     /// the top speed (0.73 m/s) the default 2 m/s² ramp stops it in 0.37 s; a part pushed
     /// along by the front face closes the switch meanwhile.
     pub regrip_brake_s: f64,
-    /// How far each look creeps straight on from its start, magnet on, m (the search is
+    /// How far each look creeps straight on from its start, magnet off, m (the search is
     /// described in `mission::search`). 0.15: the look starts `regrip_backoff_m` (3 cm)
     /// behind the pose where the part was last held, a part that slips lands up to 5 cm
     /// ahead of the face (assumption), and the estimate of that pose is a tick (up to 1 cm)
@@ -530,7 +530,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         events: &mut Vec<MissionEvent>,
     ) -> BodyTwist {
         let step = match self.search.as_mut() {
-            Some(search) => search.tick(now_us, pose, switch, &self.config),
+            Some(search) => {
+                let step = search.tick(now_us, pose, switch, &self.config);
+                self.solenoid_on = search.magnet_on();
+                step
+            }
             None => Step::Lost,
         };
         if !matches!(step, Step::Searching(_)) {
@@ -872,34 +876,44 @@ mod tests {
         (0.145..=0.17).contains(&local.x) && local.y.abs() <= 0.025 && facing <= 15f64.to_radians()
     }
 
-    /// Where a part the magnet held at `robot` lands when it slips `away_m` off its face:
-    /// the plate against the magnet's face (0.165 m out) moved on by `away_m`, facing back.
-    fn fallen_part(robot: Pose2, away_m: f64) -> Pose2 {
+    /// Where a part the magnet held at `robot` lands when it slips `away_m` off its face and
+    /// `across_m` to the robot's left: the plate against the magnet's face (0.165 m out)
+    /// moved on by `away_m`, facing back.
+    fn fallen_part(robot: Pose2, away_m: f64, across_m: f64) -> Pose2 {
         use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
         robot.compose(Pose2::new(
             PICK_STANDOFF_M + PART_DEPTH_M / 2.0 + away_m,
-            0.0,
+            across_m,
             std::f64::consts::PI,
         ))
     }
 
-    /// A carry on which the part slips off the magnet (a miniature of the fault bench's
-    /// slip): the navigator drives at `moving`; on the carry's third tick the part lands
-    /// `away_m` ahead of the magnet's face and stays there; the switch reads the world
-    /// `delay_ticks` late (the Mega's batch and the link); the magnet takes the part up
-    /// again wherever the switch closes on it. Returns the mission, its events, the
-    /// robot's poses while it searched, and where the part fell.
-    fn slip_while(
-        config: MissionConfig,
-        moving: BodyTwist,
-        away_m: f64,
-        delay_ticks: usize,
-    ) -> (
+    /// What [`slip_while`] returns: the mission, its events, the robot's poses while it
+    /// searched, where the part fell, and the part's offset to the robot's left each time
+    /// the magnet took it up after the fall, m.
+    type Slipped = (
         Mission<FakeNavigator, Script>,
         Vec<MissionEvent>,
         Vec<Pose2>,
         Option<Pose2>,
-    ) {
+        Vec<f64>,
+    );
+
+    /// A carry on which the part slips off the magnet (a miniature of the fault bench's
+    /// slip): the navigator drives at `moving`; on the carry's third tick the part lands
+    /// `away_m` ahead of the magnet's face and `across_m` to the robot's left and stays
+    /// there; the switch reads the world `delay_ticks` late (the Mega's batch and the link).
+    /// As the simulator's magnet does, the magnet takes the part up wherever the switch
+    /// closes on it, flat against its face and keeping its sideways offset, and a part it
+    /// lets go stands where it was held.
+    fn slip_while(
+        config: MissionConfig,
+        moving: BodyTwist,
+        away_m: f64,
+        across_m: f64,
+        delay_ticks: usize,
+    ) -> Slipped {
+        use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
         let mut m = mission(vec![A]);
         m.config = MissionConfig {
             exit_on_route_after_pick: true,
@@ -908,30 +922,43 @@ mod tests {
         m.navigator.extra_ticks = 40;
         m.navigator.moving = Some(moving);
         let mut carry_ticks = 0;
-        let mut part: Option<Pose2> = None;
-        let mut regripped = false;
+        let mut fell_at: Option<Pose2> = None;
+        // After the fall: the part on the floor, or held this far to the robot's left.
+        let mut floor: Option<Pose2> = None;
+        let mut held: Option<f64> = None;
+        let mut grips = Vec::new();
         let mut readings = std::collections::VecDeque::new();
         let mut searched = Vec::new();
         let events = run_along(
             &mut m,
             |state, magnet, pose| {
                 let truth = match state {
-                    State::ToPick { .. } | State::Gripping { .. } => true,
-                    _ if regripped => magnet,
-                    State::ToDrop { .. } if part.is_none() => {
+                    _ if fell_at.is_some() => {
+                        if let Some(across) = held.filter(|_| !magnet) {
+                            let at = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
+                            floor =
+                                Some(pose.compose(Pose2::new(at, across, std::f64::consts::PI)));
+                            held = None;
+                        }
+                        if let Some(part) = floor.filter(|&p| magnet && plate_touches(pose, p)) {
+                            let across = pose.relative(part).y;
+                            grips.push(across);
+                            held = Some(across);
+                            floor = None;
+                        }
+                        held.is_some() || floor.is_some_and(|p| plate_touches(pose, p))
+                    }
+                    State::ToDrop { .. } => {
                         carry_ticks += 1;
                         if carry_ticks >= 3 {
-                            part = Some(fallen_part(pose, away_m));
+                            fell_at = Some(pose);
+                            floor = Some(fallen_part(pose, away_m, across_m));
                             false
                         } else {
                             magnet
                         }
                     }
-                    _ => {
-                        let touches = part.is_some_and(|p| plate_touches(pose, p));
-                        regripped |= touches && magnet;
-                        touches
-                    }
+                    _ => true,
                 };
                 if matches!(state, State::Regripping { .. }) {
                     searched.push(pose);
@@ -945,13 +972,15 @@ mod tests {
             },
             1500,
         );
-        (m, events, searched, part)
+        let part = fell_at.map(|p| fallen_part(p, away_m, across_m));
+        (m, events, searched, part, grips)
     }
 
     /// A mission (ours, or `config`) whose carry to the drop lasts 25 ticks, and a switch
     /// that says the part is held until the carry's third tick; then it is open for
     /// `bounce_ticks` (for good with `None`: the part is on the floor) and closes again only
-    /// once the robot has crept `found_ahead_m` on from where the search began, if ever.
+    /// once the robot has crept `found_ahead_m` on from where the search began, if ever,
+    /// and is within 2.5 cm to either side of the line it began on.
     fn carry_losing_the_part(
         config: MissionConfig,
         found_ahead_m: Option<f64>,
@@ -964,7 +993,7 @@ mod tests {
         };
         m.navigator.extra_ticks = 20;
         let mut carry_ticks = 0;
-        let mut search_from: Option<f64> = None;
+        let mut search_from: Option<Pose2> = None;
         let events = run_along(
             &mut m,
             |state, magnet, pose| match state {
@@ -976,13 +1005,16 @@ mod tests {
                     let fell = carry_ticks >= 3 && bounce_ticks.is_none_or(|n| carry_ticks < 3 + n);
                     magnet && !fell
                 }
+                // The plate stands square ahead: the switch is closed from `found_ahead_m` on,
+                // within its 2.5 cm to either side.
                 State::Regripping { .. } => {
-                    let from = *search_from.get_or_insert(pose.x);
-                    magnet && found_ahead_m.is_some_and(|d| pose.x - from >= d)
+                    let from = *search_from.get_or_insert(pose);
+                    found_ahead_m
+                        .is_some_and(|d| pose.x - from.x >= d && (pose.y - from.y).abs() <= 0.025)
                 }
                 _ => false,
             },
-            300,
+            600,
         );
         (m, events)
     }
@@ -1237,7 +1269,8 @@ mod tests {
         // before it knows, and ~0.2 rad before it stands; a creep straight on from there
         // passes 4 cm beside the part.
         let turning = BodyTwist::new(0.1, 0.0, 2.5);
-        let (m, events, searched, part) = slip_while(MissionConfig::default(), turning, 0.03, 3);
+        let (m, events, searched, part, _) =
+            slip_while(MissionConfig::default(), turning, 0.03, 0.0, 3);
         assert!(events.contains(&MissionEvent::PartSlipped), "{events:?}");
         assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
         assert_eq!(m.actions().outcomes, [(A, true)]);
@@ -1262,16 +1295,30 @@ mod tests {
         // part's line. The first look misses it; a look to the side or back along the
         // trail finds it.
         let strafing = BodyTwist::new(0.0, 0.4, 0.0);
-        let (m, events, _, _) = slip_while(MissionConfig::default(), strafing, 0.02, 6);
+        let (m, events, _, _, _) = slip_while(MissionConfig::default(), strafing, 0.02, 0.0, 6);
         assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
         assert_eq!(m.actions().outcomes, [(A, true)]);
         let one_look = MissionConfig {
             regrip_looks: 1,
             ..MissionConfig::default()
         };
-        let (m, events, _, _) = slip_while(one_look, strafing, 0.02, 6);
+        let (m, events, _, _, _) = slip_while(one_look, strafing, 0.02, 0.0, 6);
         assert!(!events.contains(&MissionEvent::Regripped), "{events:?}");
         assert_eq!(m.actions().outcomes, [(A, false)]);
+    }
+
+    #[test]
+    fn a_part_found_beside_the_magnet_is_gripped_centred() {
+        // The part lands 5 cm ahead and 2 cm to the left: the first look's creep closes the
+        // switch on it 2 cm off the magnet's centre, where the magnet would keep it (and
+        // the carry would meet a divider at the drop). The robot finds the plate's edges
+        // with the switch and grips it once, in the middle.
+        let slow = BodyTwist::new(0.1, 0.0, 0.0);
+        let (m, events, _, _, grips) = slip_while(MissionConfig::default(), slow, 0.05, 0.02, 3);
+        assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        assert_eq!(grips.len(), 1, "{grips:?}");
+        assert!(grips[0].abs() < 0.004, "gripped {grips:?} m off centre");
     }
 
     #[test]

@@ -19,7 +19,21 @@
 //! whose part centre is `regrip_sweep_m` from the previous anchor's (after a Mega reset the
 //! switch is read again only once the Mega is back, 0.5 s later: the part fell off where the
 //! robot was when the Mega went silent, before it coasted to a stop). At most
-//! `regrip_looks` looks; when the switch closes the robot stands for the grip to settle.
+//! `regrip_looks` looks.
+//!
+//! When the switch closes the part is found, but the lever closes on a plate up to a few
+//! centimetres beside the magnet's centre, and the magnet keeps that offset: a part held
+//! 2.5 cm aside meets a divider at the drop, and the carry pushes there until it gives up.
+//! So the robot looks with the magnet off, and *centres* before it grips: the part standing
+//! before the face, it strafes to its left until the switch opens (the plate's edge), then
+//! to its right until it opens again, and grips midway between the two, where it then
+//! stands for the grip to settle. (A switch that closes while the robot still stands after
+//! the loss, the magnet on, is a part the face carried on: the magnet takes it up there.)
+//! Both edges are read with the same estimate lag and the same speed, in opposite
+//! directions, so the lag cancels in the midpoint. The robot holds its line a centimetre
+//! on into the plate meanwhile, so the lever stays on it. A strafe that finds no edge
+//! (blocked, or out of its span) grips where the switch first closed, as without centring;
+//! a grip that does not hold (the part moved meanwhile) goes on to the next look.
 //!
 //! Collisions: every look starts a few centimetres from poses the robot stood at moments
 //! before with its heading (`regrip_backoff_m` behind, `regrip_sweep_m` to a side), and the
@@ -65,6 +79,23 @@ const LINE_UP_TOLERANCE_RAD: f64 = 0.035;
 const STALL_S: f64 = 0.6;
 /// Progress that counts against [`STALL_S`], m: 5 mm, above the estimate's jitter.
 const STALL_PROGRESS_M: f64 = 0.005;
+/// Strafe speed while centring on the plate, m/s. 0.04: the switch is read every 20 ms, so
+/// an edge is placed within 0.8 mm, and the estimate's 0.1 s lag (4 mm) cancels in the
+/// midpoint of two edges crossed at the same speed.
+const CENTRE_SPEED_M_S: f64 = 0.04;
+/// Farthest a centring strafe goes past where it began looking for an edge, m. 0.09: more
+/// than the 80 mm plate's width, so a lever anywhere on the plate has left it by then.
+const CENTRE_SPAN_M: f64 = 0.09;
+/// Centred within this distance of the midpoint, m: 3 mm.
+const CENTRE_TOLERANCE_M: f64 = 0.003;
+/// How far ahead of where the switch closed the robot holds its line while centring, m.
+/// 0.01: the creep stops with the plate about at the magnet's face, 15 mm beyond the body's
+/// front face and only 5 mm short of the end of the lever's 20 mm reach; 1 cm on, the plate
+/// is 5 mm from the face and 15 mm from the end of the reach. A robot
+/// strafing on mecanum rollers drifts several millimetres along its heading that its
+/// estimate does not see yet; drifting away, the lever would leave the plate (an edge that
+/// is not one), drifting on, the face only pushes the part straight ahead.
+const CENTRE_PRESS_M: f64 = 0.01;
 
 /// The poses at which the robot last carried its part with the switch closed, oldest first,
 /// over the last [`TRAIL_S`].
@@ -102,7 +133,24 @@ enum Phase {
     LiningUp { limit_us: u64 },
     /// Creeping along look `look`; the farthest it got along it so far, m, and when, µs.
     Creeping { best_m: f64, best_us: u64 },
-    /// The switch closed: standing for the grip to settle.
+    /// The switch closed with the robot at `origin`: magnet off, strafing along `origin`'s
+    /// left (+y) until the switch opens at the plate's first edge, then to the right until
+    /// it opens at the second; `first_edge_m`: the first edge across `origin`, m;
+    /// `closed`: the switch read closed since the strafe began; at most until `limit_us`.
+    Centring {
+        origin: Pose2,
+        first_edge_m: Option<f64>,
+        closed: bool,
+        limit_us: u64,
+    },
+    /// Magnet off, strafing to `across_m` across `origin` (midway between the edges), for
+    /// at most until `limit_us`.
+    ToMiddle {
+        origin: Pose2,
+        across_m: f64,
+        limit_us: u64,
+    },
+    /// Centred: magnet on, standing for the grip to settle.
     Holding,
 }
 
@@ -173,6 +221,14 @@ impl Search {
         }
     }
 
+    /// Whether the magnet is on: while standing (a part pushed along by the face is taken up
+    /// as it was) and gripping; off while looking and centring, so the part is taken up only
+    /// once the robot stands centred on its plate, and never let go on the way (a part let
+    /// go between a slot's dividers drops into that slot).
+    pub(super) fn magnet_on(&self) -> bool {
+        matches!(self.phase, Phase::Braking | Phase::Holding)
+    }
+
     /// The looks' start poses, in the order they are taken.
     #[cfg(test)]
     pub(super) fn looks(&self) -> &[Pose2] {
@@ -195,12 +251,34 @@ impl Search {
             } else if switch {
                 Step::Found
             } else {
-                Step::Lost
+                // The part moved while the robot centred, or the centring went wrong: on
+                // to the next look.
+                self.next_look(now_us, pose)
             };
         }
-        if switch {
-            self.enter(Phase::Holding, now_us);
-            return stop;
+        match self.phase {
+            Phase::Centring { .. } | Phase::ToMiddle { .. } => {
+                return self.centre(now_us, pose, switch);
+            }
+            // Still standing: the face carried the part on, and the magnet took it up.
+            Phase::Braking if switch => {
+                self.enter(Phase::Holding, now_us);
+                return stop;
+            }
+            _ if switch => {
+                let limit_us = now_us + centre_limit_us(CENTRE_SPAN_M);
+                self.enter(
+                    Phase::Centring {
+                        origin: pose,
+                        first_edge_m: None,
+                        closed: true,
+                        limit_us,
+                    },
+                    now_us,
+                );
+                return stop;
+            }
+            _ => {}
         }
         match self.phase {
             Phase::Braking => {
@@ -248,12 +326,7 @@ impl Search {
                 self.phase = Phase::Creeping { best_m, best_us };
                 let stalled = now_us.saturating_sub(best_us) as f64 * 1e-6 > STALL_S;
                 if along >= config.regrip_reach_m || elapsed_s > limit_s || stalled {
-                    self.look += 1;
-                    if self.look >= self.looks.len() {
-                        return Step::Lost;
-                    }
-                    self.line_up(now_us, pose);
-                    return stop;
+                    return self.next_look(now_us, pose);
                 }
                 let hold = (-GAIN_PER_S * across).clamp(-speed, speed);
                 let velocity = along_unit * speed + across_unit * hold;
@@ -261,8 +334,95 @@ impl Search {
                 let omega = (GAIN_PER_S * yaw_error).clamp(-LINE_UP_TURN_RAD_S, LINE_UP_TURN_RAD_S);
                 Step::Searching(body_twist(velocity, omega, pose.yaw_rad))
             }
-            Phase::Holding => stop,
+            Phase::Centring { .. } | Phase::ToMiddle { .. } | Phase::Holding => stop,
         }
+    }
+
+    /// One tick of the centring on the plate (the phases [`Phase::Centring`] and
+    /// [`Phase::ToMiddle`]).
+    fn centre(&mut self, now_us: u64, pose: Pose2, switch: bool) -> Step {
+        let stop = Step::Searching(BodyTwist::default());
+        match self.phase {
+            Phase::Centring {
+                origin,
+                first_edge_m,
+                closed,
+                limit_us,
+            } => {
+                let (along, across) = along_across(origin, pose);
+                let closed = closed || switch;
+                let middle = match first_edge_m {
+                    None if closed && !switch => {
+                        // The first edge: now strafe back across the plate to the other.
+                        self.phase = Phase::Centring {
+                            origin,
+                            first_edge_m: Some(across),
+                            closed: false,
+                            limit_us: now_us + centre_limit_us(across + CENTRE_SPAN_M),
+                        };
+                        return stop;
+                    }
+                    Some(first) if closed && !switch => Some(0.5 * (first + across)),
+                    None if across >= CENTRE_SPAN_M || now_us >= limit_us => Some(0.0),
+                    Some(first) if across <= first - CENTRE_SPAN_M || now_us >= limit_us => {
+                        Some(0.0)
+                    }
+                    _ => None,
+                };
+                if let Some(across_m) = middle {
+                    let travel_m = (across_m - across).abs();
+                    let limit_us = now_us + centre_limit_us(travel_m);
+                    self.enter(
+                        Phase::ToMiddle {
+                            origin,
+                            across_m,
+                            limit_us,
+                        },
+                        now_us,
+                    );
+                    return stop;
+                }
+                self.phase = Phase::Centring {
+                    origin,
+                    first_edge_m,
+                    closed,
+                    limit_us,
+                };
+                let side = if first_edge_m.is_none() { 1.0 } else { -1.0 };
+                let twist = hold_line(
+                    origin,
+                    pose,
+                    along - CENTRE_PRESS_M,
+                    side * CENTRE_SPEED_M_S,
+                );
+                Step::Searching(twist)
+            }
+            Phase::ToMiddle {
+                origin,
+                across_m,
+                limit_us,
+            } => {
+                let (along, across) = along_across(origin, pose);
+                let error = across_m - across;
+                if error.abs() <= CENTRE_TOLERANCE_M || now_us >= limit_us {
+                    self.enter(Phase::Holding, now_us);
+                    return stop;
+                }
+                let speed = (GAIN_PER_S * error).clamp(-CENTRE_SPEED_M_S, CENTRE_SPEED_M_S);
+                Step::Searching(hold_line(origin, pose, along - CENTRE_PRESS_M, speed))
+            }
+            _ => stop,
+        }
+    }
+
+    /// On to the next look from `pose`, or [`Step::Lost`] after the last.
+    fn next_look(&mut self, now_us: u64, pose: Pose2) -> Step {
+        self.look += 1;
+        if self.look >= self.looks.len() {
+            return Step::Lost;
+        }
+        self.line_up(now_us, pose);
+        Step::Searching(BodyTwist::default())
     }
 
     fn enter(&mut self, phase: Phase, now_us: u64) {
@@ -279,6 +439,33 @@ impl Search {
         let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
         self.enter(Phase::LiningUp { limit_us }, now_us);
     }
+}
+
+/// The time limit of a centring strafe over `span_m`: twice its time at
+/// [`CENTRE_SPEED_M_S`], and half a second, µs.
+fn centre_limit_us(span_m: f64) -> u64 {
+    ((0.5 + 2.0 * span_m.abs() / CENTRE_SPEED_M_S) * 1e6) as u64
+}
+
+/// Where `pose` is from `origin`: along its heading and to its left, m.
+fn along_across(origin: Pose2, pose: Pose2) -> (f64, f64) {
+    let along_unit = Vec2::from_angle(origin.yaw_rad);
+    let across_unit = Vec2::new(-along_unit.y, along_unit.x);
+    let offset = pose.position() - origin.position();
+    (offset.dot(along_unit), offset.dot(across_unit))
+}
+
+/// Strafe along `origin`'s left at `speed_m_s` (negative: to the right), holding a line
+/// square to `origin`'s heading, and that heading; the robot is `along_m` ahead of the
+/// line.
+fn hold_line(origin: Pose2, pose: Pose2, along_m: f64, speed_m_s: f64) -> BodyTwist {
+    let along_unit = Vec2::from_angle(origin.yaw_rad);
+    let across_unit = Vec2::new(-along_unit.y, along_unit.x);
+    let hold = (-GAIN_PER_S * along_m).clamp(-CENTRE_SPEED_M_S, CENTRE_SPEED_M_S);
+    let velocity = across_unit * speed_m_s + along_unit * hold;
+    let yaw_error = wrap_angle(origin.yaw_rad - pose.yaw_rad);
+    let omega = (GAIN_PER_S * yaw_error).clamp(-LINE_UP_TURN_RAD_S, LINE_UP_TURN_RAD_S);
+    body_twist(velocity, omega, pose.yaw_rad)
 }
 
 /// `v` shortened to at most `max` long.
