@@ -39,7 +39,7 @@ const BURST_US: u64 = 5_000;
 /// Largest share of batches that may come in bursts.
 const MAX_BURST_SHARE: f64 = 0.02;
 /// How long to wait for the Mega's first word, s.
-const FIRST_TELEMETRY_S: f64 = 3.0;
+pub const FIRST_TELEMETRY_S: f64 = 3.0;
 
 /// Why the identification's steps could not be run or read back.
 #[derive(Debug, thiserror::Error)]
