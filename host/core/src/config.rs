@@ -123,6 +123,13 @@ fn join(issues: &[Issue]) -> String {
 pub const SIMULATOR_SECTIONS: [&str; 2] = ["sim", "traction"];
 
 impl Config {
+    /// This configuration with the simulated world drawn from `world` (`[sim] world`): the
+    /// tests that pin the ideal world's exact geometry say so with it.
+    pub fn in_world(mut self, world: WorldProfile) -> Self {
+        self.sim.world = world;
+        self
+    }
+
     /// Parse a robot's configuration: as [`Config::from_toml_str`], and any simulator
     /// section ([`SIMULATOR_SECTIONS`]) is an error naming it.
     pub fn robot_from_toml_str(text: &str) -> Result<Self, ConfigError> {

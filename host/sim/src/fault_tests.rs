@@ -1,6 +1,6 @@
 //! Each fault of [`crate::faults`] really happens in the world and its devices.
 
-use ratf_core::config::Config;
+use ratf_core::config::{Config, WorldProfile};
 use ratf_core::field::geometry::Pose2;
 use ratf_core::field::{Field, PartColor};
 use ratf_core::kinematics::{BodyTwist, Mecanum};
@@ -23,9 +23,10 @@ fn plan(kind: FaultKind, start_ms: u64, end_ms: Option<u64>, seed: u64) -> Fault
     }
 }
 
-/// The robot standing at incoming slot 0's pick pose, a red part in every incoming slot.
+/// The robot standing at incoming slot 0's pick pose, a red part in every incoming slot, in
+/// the ideal world (the faults' timing without USB jitter).
 fn devices() -> SimDevices {
-    let config = Config::default();
+    let config = Config::default().in_world(WorldProfile::Ideal);
     let pose = Field::competition()
         .incoming_slot(0)
         .map(|s| s.pick_pose)

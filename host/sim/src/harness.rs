@@ -137,11 +137,14 @@ impl SimulatedRobot {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ratf_core::config::WorldProfile;
     use ratf_core::field::geometry::Pose2;
     use ratf_core::kinematics::BodyTwist;
 
+    /// The ideal world: the odometry's exactness and the telemetry's timing, without the
+    /// realistic world's slip and USB jitter.
     fn run(twist: BodyTwist, seconds: f64) -> SimulatedRobot {
-        let config = Config::default();
+        let config = Config::default().in_world(WorldProfile::Ideal);
         let start = Pose2::new(-0.64, -0.42, std::f64::consts::FRAC_PI_2);
         let scenario = Scenario {
             start_pose: start,
@@ -182,7 +185,7 @@ mod tests {
 
     #[test]
     fn telemetry_is_timed_at_the_megas_tick() {
-        let config = Config::default();
+        let config = Config::default().in_world(WorldProfile::Ideal);
         let scenario = Scenario::new(&config);
         let mut sim = SimulatedRobot::new(&config, &scenario, scenario.start_pose).unwrap();
         let mut sampled = Vec::new();

@@ -864,8 +864,9 @@ mod tests {
     use crate::parts::PartPlace;
     use ratf_core::drivers::mega_link::{MegaEvent, MegaLink};
 
+    /// A world with the ideal profile: these tests check exact geometry and timing.
     fn world(pose: Pose2) -> World {
-        let config = Config::default();
+        let config = Config::default().in_world(WorldProfile::Ideal);
         World::new(
             &config,
             &Scenario {
@@ -1025,7 +1026,7 @@ mod tests {
     #[test]
     fn a_free_part_is_pushed_along_in_front_of_the_robot() {
         let start = Pose2::new(-0.8, 0.0, 0.0);
-        let config = Config::default();
+        let config = Config::default().in_world(WorldProfile::Ideal);
         let mut world = World::new(
             &config,
             &Scenario {

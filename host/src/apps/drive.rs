@@ -211,7 +211,7 @@ mod tests {
 
     #[test]
     fn the_square_runs_without_collision_and_odometry_stays_close() {
-        let config = Config::default();
+        let config = Config::default().in_world(ratf_core::config::WorldProfile::Ideal);
         let mut lines = 0;
         let (report, trace) = run(&config, Named::Square, |_| lines += 1).unwrap();
         assert_eq!(report.collisions, 0, "{:?}", trace.collisions);
@@ -231,7 +231,7 @@ mod tests {
 
     #[test]
     fn the_dash_slips_and_its_odometry_drifts_more_than_the_square() {
-        let config = Config::default();
+        let config = Config::default().in_world(ratf_core::config::WorldProfile::Ideal);
         let (square, _) = run(&config, Named::Square, |_| {}).unwrap();
         let (dash, _) = run(&config, Named::Dash, |_| {}).unwrap();
         assert!(dash.slip_steps > 0);

@@ -458,7 +458,7 @@ mod tests {
 
     #[test]
     fn one_default_run_drives_the_whole_route() {
-        let mut config = Config::default();
+        let mut config = Config::default().in_world(ratf_core::config::WorldProfile::Ideal);
         config.sim.seed = 1;
         let scores = run_once(&config, &config, Condition::Default).unwrap();
         assert!(scores[0].acc.samples > 1000, "{}", scores[0].acc.samples);

@@ -544,7 +544,8 @@ mod tests {
 
     #[test]
     fn lower_configured_limits_are_respected_in_simulation() {
-        let mut config = Config::default();
+        // The ideal world: the limits, not the realistic world's odometry error at the goal.
+        let mut config = Config::default().in_world(ratf_core::config::WorldProfile::Ideal);
         config.navigation.max_speed_m_s = 0.3;
         config.navigation.max_accel_m_s2 = 1.0;
         config.navigation.max_yaw_rate_rad_s = 1.0;

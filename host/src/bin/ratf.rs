@@ -362,7 +362,7 @@ struct BenchArgs {
     #[arg(long)]
     json: bool,
     /// How the simulated world departs from the robot's configuration (default: the
-    /// configuration's `[sim] world`, `ideal` unless set).
+    /// configuration's `[sim] world`, `realistic` unless set).
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
 }
@@ -483,7 +483,7 @@ struct SimArgs {
     #[arg(long, value_name = "S")]
     force_start_s: Option<f64>,
     /// How the simulated world departs from the robot's configuration (default: the
-    /// configuration's `[sim] world`, `ideal` unless set).
+    /// configuration's `[sim] world`, `realistic` unless set).
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
     /// Calibrate first, as a team does on the day (`ratf calibrate`'s drive with tape

@@ -14,11 +14,12 @@ use super::limits;
 pub enum WorldProfile {
     /// The world is exactly what the robot believes (the first wave's simulator): for
     /// regression only, since no real floor is like it.
-    #[default]
     Ideal,
     /// The real-world error budget's "realistic" column: a lidar with its datasheet's
     /// calibration errors, beacons placed with a tape, worn wheels, mecanum roller slip, a
-    /// MEMS gyro's scale and bias, motors that differ.
+    /// MEMS gyro's scale and bias, motors that differ. The default: every figure a team
+    /// reads should come from a world that is not its robot's own model.
+    #[default]
     Realistic,
     /// About twice realistic: a stress test.
     Harsh,
@@ -45,8 +46,8 @@ impl std::fmt::Display for WorldProfile {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
-    /// How the world's truth departs from the robot's beliefs. `ideal` by default until the
-    /// robot scores in the realistic world (issue 11); benches take `--world`.
+    /// How the world's truth departs from the robot's beliefs: `realistic` by default (issue
+    /// 11); `ratf sim` and the benches take `--world`.
     pub world: WorldProfile,
     /// Random seed; the same seed gives the same run. TOML integers are i64, so seeds above
     /// 2^63 − 1 cannot be written in a file.
@@ -163,7 +164,7 @@ impl Default for SimConfig {
             height_m: 0.75,
         });
         Self {
-            world: WorldProfile::Ideal,
+            world: WorldProfile::Realistic,
             seed: 1,
             time_step_us: 1000,
             clutter,
