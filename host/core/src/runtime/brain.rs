@@ -8,13 +8,14 @@
 use crate::competition::{RouteNavigator, SnapshotUse, TaskActions};
 use crate::config::{Config, Policy};
 use crate::control::route::Route;
+use crate::control::route_time::RouteTimes;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
 use crate::mission::{Activity, Mission, MissionConfig, MissionEvent};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
-    Timing,
+    Timing, TravelTimes,
 };
 use crate::referee::protocol::{Reply, Request, SlotLetters, letters_to_string};
 use crate::referee::snapshot::SnapshotCycle;
@@ -74,12 +75,18 @@ impl Brain {
     pub fn new(config: &Config) -> Result<Self, TaskError> {
         let field = Field::competition();
         let competition = &config.competition;
-        let model = Model::new(
-            &StraightLineTimes::new(
+        // Ours plans on the times of the routes it will drive; the original on straight
+        // lines at its cruise speed and turn rate, as it did.
+        let travel: Box<dyn TravelTimes> = match competition.policy {
+            Policy::Ours => Box::new(RouteTimes::new(config)),
+            Policy::Original => Box::new(StraightLineTimes::new(
                 &field,
                 competition.planner_speed_m_s,
                 competition.planner_turn_rate_rad_s,
-            ),
+            )),
+        };
+        let model = Model::new(
+            travel.as_ref(),
             Timing {
                 pick_s: competition.planner_pick_s,
                 drop_s: competition.planner_drop_s,

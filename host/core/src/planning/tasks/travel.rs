@@ -70,6 +70,12 @@ impl Location {
         }
     }
 
+    /// Whether the robot only ever picks here (the incoming warehouse, a machine's output),
+    /// so it arrives empty; it arrives carrying a part at every other slot.
+    pub fn is_pick(self) -> bool {
+        matches!(self, Self::Incoming(_) | Self::MachineOutput(..))
+    }
+
     /// The field's slot at this location (`None` for the start or an out-of-range index).
     pub fn slot(self, field: &Field) -> Option<&Slot> {
         match self {
