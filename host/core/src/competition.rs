@@ -368,6 +368,10 @@ impl Navigator for RouteNavigator {
         }
     }
 
+    fn halted(&mut self) {
+        self.follower.halted();
+    }
+
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Arrival) {
         if self.failed {
             return (BodyTwist::default(), Arrival::Failed);

@@ -21,6 +21,15 @@
 //! | backing out after the drop | the switch opened | report the part as stuck |
 //!
 //! A skipped action is reported to the planner, which re-plans from what it knows.
+//!
+//! **Held.** While the core holds the robot still (a device silent or its port lost,
+//! `runtime::silence`), it calls [`Mission::hold`] instead of [`Mission::tick`]: the mission
+//! stands with its clock stopped. Its switch and pose are stale then and its commands go
+//! nowhere, so no timeout may run out and no decision may be taken on them (before, a back-out
+//! after a drop that could not move "ran out" and the part counted as stuck on the magnet).
+//! The next tick goes on from where it stood: every timer moved on by the time held, the
+//! navigator told the robot stands ([`Navigator::halted`]), a grip's settling begun again (the
+//! hold let the magnet go) and a carried part's open switch judged afresh.
 
 mod search;
 
@@ -70,6 +79,9 @@ pub trait Navigator {
     fn go_to(&mut self, now_us: u64, pose: Pose2, goal: WaypointId, dock: bool);
     /// One tick: the twist to command and how it is going.
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Arrival);
+    /// The robot was held still (the mission stood, [`Mission::hold`]): it is at rest now,
+    /// whatever was last commanded; go on along the same way from rest.
+    fn halted(&mut self);
 }
 
 /// The mission's timing and distances (`[mission]`). Defaults are assumptions, each argued.
@@ -386,6 +398,8 @@ pub struct Mission<N, A> {
     trail: Trail,
     /// The search while regripping.
     search: Option<Search>,
+    /// Since when the core holds the robot ([`Mission::hold`]), µs.
+    held_since_us: Option<u64>,
 }
 
 impl<N: Navigator, A: ActionSource> Mission<N, A> {
@@ -399,6 +413,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             solenoid_on: false,
             trail: Trail::default(),
             search: None,
+            held_since_us: None,
         }
     }
 
@@ -446,6 +461,9 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// One host tick.
     pub fn tick(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> MissionOutput {
+        if let Some(since_us) = self.held_since_us.take() {
+            self.resume(now_us.saturating_sub(since_us), now_us);
+        }
         let mut events = Vec::new();
         let twist = self.advance(now_us, pose, switch_pressed, &mut events);
         MissionOutput {
@@ -453,6 +471,50 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             solenoid_on: self.solenoid_on,
             events,
         }
+    }
+
+    /// A host tick at `now_us` while the core holds the robot still (see the module
+    /// documentation): the mission stands, its clock stopped, its magnet as it was (the
+    /// core's hold decides when the magnet lets go).
+    pub fn hold(&mut self, now_us: u64) {
+        self.held_since_us.get_or_insert(now_us);
+    }
+
+    /// True while the mission stands held ([`Self::hold`]) and has not ticked since.
+    pub fn is_held(&self) -> bool {
+        self.held_since_us.is_some()
+    }
+
+    /// The magnet level the mission wants.
+    pub fn solenoid_on(&self) -> bool {
+        self.solenoid_on
+    }
+
+    /// Go on at `now_us` after standing held for `held_us`.
+    fn resume(&mut self, held_us: u64, now_us: u64) {
+        let later = |t: &mut u64| *t = t.saturating_add(held_us).min(now_us);
+        match &mut self.state {
+            State::ToPick { since_us, .. }
+            | State::BackingOut { since_us, .. }
+            | State::Releasing { since_us, .. } => later(since_us),
+            // The hold let the magnet go: it settles again from now.
+            State::Gripping { since_us, .. } => *since_us = now_us,
+            // The switch's state from before the hold says nothing of the part now.
+            State::ToDrop {
+                since_us,
+                open_since_us,
+                ..
+            } => {
+                later(since_us);
+                *open_since_us = None;
+            }
+            State::Regripping { .. } | State::Idle | State::Finished => {}
+        }
+        self.trail.later(held_us);
+        if let Some(search) = self.search.as_mut() {
+            search.later(held_us);
+        }
+        self.navigator.halted();
     }
 
     fn elapsed_s(now_us: u64, since_us: u64) -> f64 {
@@ -773,6 +835,8 @@ mod tests {
         extra_ticks: u32,
         /// The twist while moving (`None`: 0.3 m/s straight on).
         moving: Option<BodyTwist>,
+        /// Times told the robot was held still.
+        halts: u32,
     }
 
     impl Navigator for FakeNavigator {
@@ -781,6 +845,10 @@ mod tests {
             self.dock = dock;
             self.failing = self.unreachable.contains(&goal);
             self.goals.push((goal, dock));
+        }
+
+        fn halted(&mut self) {
+            self.halts += 1;
         }
 
         fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
@@ -1536,5 +1604,119 @@ mod tests {
             }
             pose.x += out.twist.vx_m_s * 0.02;
         }
+    }
+
+    /// A pick and place in which the core holds the robot still for `held_ticks` host ticks
+    /// (20 ms) from the first tick `hold_in` is true of the state: the mission gets
+    /// [`Mission::hold`] instead of [`Mission::tick`] and the robot stands. The switch reads
+    /// the world: the part presses it from the docking until, after the release, the robot
+    /// has backed 1 cm off the drop pose. The mission, its events with their ticks, and the
+    /// tick the hold ended.
+    fn held_pick_and_place(
+        hold_in: impl Fn(&State) -> bool,
+        held_ticks: u64,
+    ) -> (
+        Mission<FakeNavigator, Script>,
+        Vec<(u64, MissionEvent)>,
+        u64,
+    ) {
+        let mut m = mission(vec![A]);
+        let mut pose = Pose2::default();
+        let mut released_at: Option<Pose2> = None;
+        let mut held: Option<std::ops::Range<u64>> = None;
+        let mut events = Vec::new();
+        for k in 0..400u64 {
+            let now = k * 20_000;
+            if held.is_none() && hold_in(&m.state) {
+                held = Some(k..k + held_ticks);
+            }
+            if held.as_ref().is_some_and(|h| h.contains(&k)) {
+                let magnet = m.solenoid_on();
+                m.hold(now);
+                assert!(m.is_held());
+                assert_eq!(m.solenoid_on(), magnet, "the mission keeps its magnet held");
+                continue;
+            }
+            if let State::BackingOut {
+                from,
+                then: AfterBackOut::ConfirmRelease(_),
+                ..
+            } = m.state
+            {
+                released_at.get_or_insert(from);
+            }
+            let pressed = matches!(
+                m.state,
+                State::ToPick { .. } | State::Gripping { .. } | State::Releasing { .. }
+            ) || m.solenoid_on
+                || released_at.is_some_and(|at| at.position().distance(pose.position()) < 0.01);
+            let out = m.tick(now, pose, pressed);
+            pose = moved(pose, out.twist);
+            events.extend(out.events.into_iter().map(|e| (k, e)));
+        }
+        let end = held.expect("the hold came").end;
+        (m, events, end)
+    }
+
+    /// Issue 17, the Mega's cable out for a second right after a drop: the core held the
+    /// robot in the back-out that checks the release, the mission's clock ran on, the
+    /// reverse "ran out" with the robot still against the part (the switch closed) and the
+    /// placed part counted as stuck on the magnet. Held, the mission's clock stops: the
+    /// back-out goes on from rest when the hold ends and the part counts as placed.
+    #[test]
+    fn a_back_out_held_still_after_a_drop_goes_on_and_the_part_counts_as_placed() {
+        let (m, events, _) = held_pick_and_place(
+            |state| {
+                matches!(
+                    state,
+                    State::BackingOut {
+                        then: AfterBackOut::ConfirmRelease(_),
+                        ..
+                    }
+                )
+            },
+            // 2 s: longer than the back-out's limit (three times its 0.42 s profile).
+            100,
+        );
+        let events: Vec<_> = events.into_iter().map(|(_, e)| e).collect();
+        assert_eq!(
+            events,
+            [
+                MissionEvent::ActionStarted {
+                    action: A,
+                    attempt: 1
+                },
+                MissionEvent::Picked { slot: A.pick },
+                MissionEvent::Placed { slot: A.drop },
+                MissionEvent::Finished,
+            ]
+        );
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        assert_eq!(m.navigator.halts, 1, "the navigator hears of the hold once");
+    }
+
+    /// Held while gripping (the core's hold lets the magnet go), the mission decides nothing
+    /// on the switch it last heard: the grip settles again, magnet on, from the hold's end
+    /// before the part counts as picked.
+    #[test]
+    fn a_grip_held_still_settles_again_before_the_part_counts_as_picked() {
+        let (m, events, end) =
+            held_pick_and_place(|state| matches!(state, State::Gripping { .. }), 50);
+        let picked = events
+            .iter()
+            .find(|(_, e)| *e == MissionEvent::Picked { slot: A.pick })
+            .map(|(k, _)| *k)
+            .expect("picked");
+        assert!(
+            (picked - end) as f64 * 0.02 >= m.config.grip_settle_s,
+            "picked {} ticks after the hold",
+            picked - end
+        );
+        assert!(
+            events
+                .iter()
+                .any(|(_, e)| *e == MissionEvent::Placed { slot: A.drop }),
+            "{events:?}"
+        );
     }
 }

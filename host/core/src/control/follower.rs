@@ -60,6 +60,9 @@ pub trait PathFollower {
     fn start(&mut self, route: Route);
     /// One tick at `now_us` with the pose estimate and the box switch.
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand;
+    /// The robot was held still: it is at rest now, whatever was last commanded, and the
+    /// time since the last update passed standing; go on along the route from rest.
+    fn halted(&mut self);
 }
 
 /// Extra along-track speed that keeps the final approach moving against the wheels' dead
@@ -148,6 +151,14 @@ impl PathFollower for Follower {
         self.last_us = None;
         self.ticks_at_goal = 0;
         self.status = Status::Following;
+    }
+
+    fn halted(&mut self) {
+        self.speed_m_s = 0.0;
+        self.last_velocity = Vec2::ZERO;
+        self.last_omega_rad_s = 0.0;
+        self.last_us = None;
+        self.ticks_at_goal = 0;
     }
 
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand {

@@ -97,6 +97,12 @@ impl OriginalPi {
         }
     }
 
+    /// The time since the last step passed with the loop stopped: the next step integrates
+    /// nothing over it.
+    pub fn pause(&mut self) {
+        self.last_us = None;
+    }
+
     /// One step with error `error` at `now_us`.
     pub fn update(&mut self, error: f64, now_us: u64) -> f64 {
         let Some(last) = self.last_us.replace(now_us) else {
@@ -183,6 +189,12 @@ impl PathFollower for OriginalFollower {
         self.segment = 0;
         self.can_rotate = false;
         self.following = true;
+    }
+
+    fn halted(&mut self) {
+        self.pi_x.pause();
+        self.pi_y.pause();
+        self.pi_theta.pause();
     }
 
     fn update(&mut self, now_us: u64, pose: Pose2, _switch_pressed: bool) -> FollowerCommand {

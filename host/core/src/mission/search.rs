@@ -110,6 +110,13 @@ impl Trail {
         self.poses.clear();
     }
 
+    /// Every pose `held_us` later: the mission stood held that long (its clock stopped).
+    pub(super) fn later(&mut self, held_us: u64) {
+        for (t, _) in &mut self.poses {
+            *t = t.saturating_add(held_us);
+        }
+    }
+
     /// The robot carried its part at `pose` at `now_us`, the switch closed.
     pub(super) fn push(&mut self, now_us: u64, pose: Pose2) {
         self.poses.push_back((now_us, pose));
@@ -218,6 +225,20 @@ impl Search {
             look: 0,
             phase: Phase::Braking,
             since_us,
+        }
+    }
+
+    /// Every time of the search `held_us` later: the mission stood held that long (its clock
+    /// stopped), so no phase's limit runs out meanwhile.
+    pub(super) fn later(&mut self, held_us: u64) {
+        let later = |t: &mut u64| *t = t.saturating_add(held_us);
+        later(&mut self.since_us);
+        match &mut self.phase {
+            Phase::LiningUp { limit_us }
+            | Phase::Centring { limit_us, .. }
+            | Phase::ToMiddle { limit_us, .. } => later(limit_us),
+            Phase::Creeping { best_us, .. } => later(best_us),
+            Phase::Braking | Phase::Holding => {}
         }
     }
 

@@ -156,18 +156,26 @@ impl Brain {
 
     /// One host tick at `now_us` with the pose estimate and the switch; `events` gets what
     /// happened. Without `may_drive` (the Mega has not been heard yet) the mission waits,
-    /// still and with the magnet off; the server is still read.
+    /// still and with the magnet off; the server is still read. With `held` (the core holds
+    /// the robot still: a device silent or its port lost) the mission stands with its clock
+    /// stopped and its magnet as it was ([`Mission::hold`]), and goes on from there at the
+    /// next tick without.
     pub fn tick(
         &mut self,
         now_us: u64,
         pose: Pose2,
         switch_pressed: bool,
         may_drive: bool,
+        held: bool,
         events: &mut Vec<Event>,
     ) -> BrainTick {
         let mut out = BrainTick::default();
         match self.mission.as_mut() {
             Some(_) if !may_drive => {}
+            Some(mission) if held => {
+                mission.hold(now_us);
+                out.solenoid_on = mission.solenoid_on();
+            }
             None => {
                 if now_us >= self.next_poll_us && self.tracker.ready(now_us) {
                     self.next_poll_us = now_us + self.poll_period_us;

@@ -179,15 +179,17 @@ impl Core {
         // batch), so odometry and the switch are real before the first move.
         let counts = self.robot.input_counts();
         let mega_heard = counts.mega_resets + counts.wheel_batches > 0;
+        // A held robot's mission stands with its clock stopped (`mission`, "Held").
+        let hold = self.silence.check(now_us, &mut outputs.events);
         let tick = self.brain.tick(
             now_us,
             self.robot.pose(),
             self.robot.switch_pressed(),
             mega_heard,
+            hold.wheels,
             &mut outputs.events,
         );
         outputs.referee = tick.request;
-        let hold = self.silence.check(now_us, &mut outputs.events);
         let mut open_loop_pwm = None;
         if self.stopped {
             self.robot.command_motion(BodyTwist::default());
@@ -565,6 +567,52 @@ mod tests {
             );
             assert!(drives, "{lost}: the mission did not go on");
         }
+    }
+
+    /// Issue 17: while the core held the robot (the Mega's port lost), the mission's clock ran
+    /// on and its timeouts ran out on a robot that could not move: a drive "timed out" and
+    /// was retried, a back-out after a drop "ran out" against the part and the part counted
+    /// as stuck. Held, the mission stands with its clock stopped: away 30 s, longer than the
+    /// drive's 25 s timeout, the drive goes on as the first attempt when the Mega is back.
+    #[test]
+    fn the_missions_clock_stops_while_a_lost_port_holds_the_robot() {
+        let mut core = driving_until_400_ms("held");
+        core.step(&at(
+            400,
+            Input::DeviceFault {
+                device: DeviceKind::Mega,
+                message: "port gone".into(),
+                reconnecting: true,
+            },
+        ));
+        let mut events = Vec::new();
+        let mut drives = false;
+        for k in 20..1_650u64 {
+            let ms = 20 * k + 13;
+            // The Mega is away until 30.4 s, then resets and streams again.
+            if ms >= 30_400 {
+                if ms < 30_420 {
+                    core.step(&at(ms - 5, Input::MegaReset));
+                }
+                core.step(&telemetry(ms));
+            }
+            if k % 7 == 0 {
+                core.step(&scan(ms, 100));
+            }
+            let out = core.step(&at(ms + 4, Input::HostTick));
+            drives |= ms >= 30_400 && moving(&out);
+            events.extend(out.events);
+        }
+        assert!(
+            !events
+                .iter()
+                .any(|e| matches!(e, Event::ActionStarted { .. } | Event::Skipped { .. })),
+            "the mission gave up or began again: {events:?}"
+        );
+        assert!(events.contains(&Event::DeviceBack {
+            device: DeviceKind::Mega
+        }));
+        assert!(drives, "the drive did not go on");
     }
 
     /// A core whose round started (four blue parts) and whose Mega and lidar streamed until
