@@ -34,7 +34,7 @@ use ratf_core::calibration::CalibrationError;
 use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
-use ratf_core::field::{Field, PartColor};
+use ratf_core::field::{Field, PartColor, WaypointId};
 use ratf_core::planning::bound::{BoundError, RoundBound};
 use ratf_core::planning::tasks::{Rules, TaskError};
 use ratf_core::runtime::{
@@ -218,7 +218,7 @@ struct RoundDevices {
     link: RefereeLink,
     server: MockServer,
     field: Field,
-    rules: Rules,
+    scorer: Scorer,
     silent_server: bool,
     server_started: bool,
     server_removes: Option<(ServerSlot, f64)>,
@@ -248,11 +248,11 @@ impl RoundDevices {
                         let _ = self.server.referee_mut().take(slot, at_us);
                     }
                 }
-                PartEvent::Placed { slot, color, .. } => {
+                PartEvent::Placed { part, slot, color } => {
                     if let Some(server_slot) = ServerSlot::of_waypoint(&self.field, slot) {
                         let _ = self.server.referee_mut().place(server_slot, color, at_us);
                     }
-                    if scores(&self.field, self.rules, slot.0, color) {
+                    if self.scorer.placed(part, slot, color) {
                         self.points += 1;
                         self.last_point_us = at_us;
                         self.events.push(RoundEvent::Points {
@@ -461,7 +461,7 @@ pub fn run_faulted(
         sim: SimDevices::new(&config, &scenario)?,
         link,
         server,
-        rules: Rules::for_round(round),
+        scorer: Scorer::new(&field, Rules::for_round(round)),
         field: field.clone(),
         silent_server,
         server_started: false,
@@ -790,6 +790,40 @@ pub fn bench(
     Ok(rows)
 }
 
+/// The points of a round as the organisers count them: a placement scores when its slot
+/// takes the part's colour ([`scores`]), and each part scores each of its stages once
+/// (competition.md §2: a blue part once, a green twice, a red three times). A part lifted
+/// from its slot and put back (a Mega reset cuts the magnet over the slot, the robot grips
+/// it again and releases it) is one placement, not two.
+#[derive(Clone, Debug)]
+pub struct Scorer {
+    field: Field,
+    rules: Rules,
+    scored: Vec<(usize, PartColor)>,
+}
+
+impl Scorer {
+    /// A scorer for a round played under `rules` on `field`.
+    pub fn new(field: &Field, rules: Rules) -> Self {
+        Self {
+            field: field.clone(),
+            rules,
+            scored: Vec::new(),
+        }
+    }
+
+    /// Part `part`, `color` when released, now stands in the slot of waypoint `slot`:
+    /// whether that is a new point. A part's colour names its stage (red for machine A,
+    /// green for a machine's input, blue for the outgoing warehouse).
+    pub fn placed(&mut self, part: usize, slot: WaypointId, color: PartColor) -> bool {
+        if !scores(&self.field, self.rules, slot.0, color) || self.scored.contains(&(part, color)) {
+            return false;
+        }
+        self.scored.push((part, color));
+        true
+    }
+}
+
 /// Whether placing a `color` part at slot waypoint `slot` scores (competition.md §2).
 pub fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
     if (62..=65).contains(&slot) {
@@ -987,25 +1021,25 @@ mod tests {
 
     #[test]
     fn calibrating_first_turns_a_lost_realistic_round_into_a_full_score() {
-        // Seed 2's world loses round 3 uncalibrated (1 point of 8, 3 actions timed out): of
+        // Seed 23's world loses round 2 uncalibrated (5 points of 6, 1 action given up): of
         // rounds 1–3 at seeds 1–40 it is the only one the uncalibrated robot does not score
-        // fully since the mission searches for a lost part and contact guides a docking robot
-        // (seed 17's round 1, pinned here before, now scores uncalibrated in 85 s). The
-        // calibration drive fixes the robot's beliefs, not the world; the calibrated run
-        // still grazes a divider twice, which this test does not pin.
+        // fully since the planner times our routes (seed 2's round 3, pinned here before,
+        // now scores uncalibrated; seed 17's round 1 before that). The calibration drive
+        // fixes the robot's beliefs, not the world; the calibrated run still grazes once,
+        // which this test does not pin.
         let mut world = Config::default();
         world.sim.world = WorldProfile::Realistic;
-        world.sim.seed = 2;
-        let options = RoundOptions::new(3, 2, Policy::Ours);
+        world.sim.seed = 23;
+        let options = RoundOptions::new(2, 23, Policy::Ours);
         let uncalibrated = run_in_world(&world, &world, &options, &mut [], |_| {}).unwrap();
-        assert!(uncalibrated.points < 8, "{uncalibrated:?}");
+        assert!(uncalibrated.points < 6, "{uncalibrated:?}");
         let mut calibrated = world.clone();
         calibrate::run_in_sim(&world, true)
             .unwrap()
             .calibration
             .apply(&mut calibrated);
         let report = run_in_world(&world, &calibrated, &options, &mut [], |_| {}).unwrap();
-        assert_eq!((report.points, report.timeouts), (8, 0), "{report:?}");
+        assert_eq!((report.points, report.timeouts), (6, 0), "{report:?}");
     }
 
     #[test]
@@ -1024,6 +1058,17 @@ mod tests {
         assert!(scores(&field, Rules::for_round(2), 56, PartColor::Green));
         assert!(scores(&field, round3, 54, PartColor::Green)); // machine B input
         assert!(!scores(&field, round3, 55, PartColor::Green)); // an output is no placement
+        // Each part scores each stage once: a blue part put back on its outgoing slot, or
+        // moved to another, is still one point; a red part scores at A, B and outgoing.
+        let mut scorer = Scorer::new(&field, round3);
+        assert!(scorer.placed(0, WaypointId(62), PartColor::Blue));
+        assert!(!scorer.placed(0, WaypointId(62), PartColor::Blue));
+        assert!(!scorer.placed(0, WaypointId(63), PartColor::Blue));
+        assert!(scorer.placed(1, WaypointId(62), PartColor::Blue));
+        assert!(!scorer.placed(2, WaypointId(55), PartColor::Green));
+        assert!(scorer.placed(2, WaypointId(56), PartColor::Red));
+        assert!(scorer.placed(2, WaypointId(54), PartColor::Green));
+        assert!(scorer.placed(2, WaypointId(64), PartColor::Blue));
     }
 
     #[test]

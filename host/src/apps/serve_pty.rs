@@ -40,7 +40,7 @@ use ratf_sim::parts::PartEvent;
 use ratf_sim::referee::{MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::world::{Scenario, World};
 
-use super::round::{RoundOptions, START_DELAY_S, scores};
+use super::round::{RoundOptions, START_DELAY_S, Scorer};
 use crate::referee::server::MockServer;
 
 /// How long the Mega's pseudo-terminal may stay closed after being opened before the
@@ -339,7 +339,7 @@ pub fn serve(
     let round = &options.round;
     let config = round.apply_to(config);
     let field = Field::competition();
-    let rules = Rules::for_round(round.round);
+    let mut scorer = Scorer::new(&field, Rules::for_round(round.round));
     let letters = round_parts(round.round, round.seed)?;
     let machine_delay_us = (round.machine_delay_s * 1e6) as u64;
     let settings =
@@ -529,11 +529,11 @@ pub fn serve(
                         let _ = server.referee_mut().take(slot, at_us);
                     }
                 }
-                PartEvent::Placed { slot, color, .. } => {
+                PartEvent::Placed { part, slot, color } => {
                     if let Some(server_slot) = ServerSlot::of_waypoint(&field, slot) {
                         let _ = server.referee_mut().place(server_slot, color, at_us);
                     }
-                    if scores(&field, rules, slot.0, color) {
+                    if scorer.placed(part, slot, color) {
                         report.points += 1;
                         report.last_point_s = at_us as f64 * 1e-6;
                         on_event(&ServeEvent::Point {
