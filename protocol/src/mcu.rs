@@ -23,7 +23,8 @@
 //!   wheel's PI and sets its PWM directly; `L` sets the solenoid.
 //! - Watchdog: if no `G` or `K` arrived for more than [`McuConfig::watchdog_timeout_us`],
 //!   the next tick stops every motor at once (PWM 0, controllers disabled) and releases the
-//!   solenoid. Unlike the original, **telemetry keeps flowing** while timed out, so a host
+//!   solenoid [`SOLENOID_HOLD_AFTER_STOP_US`] later, so a carried part stays on the magnet
+//!   while the robot coasts to rest. Unlike the original, **telemetry keeps flowing** while timed out, so a host
 //!   that only speaks after hearing `g` can never deadlock (§10.1). The Mega boots timed out:
 //!   motors stay off until the host speaks. A new `G` or `K` resumes control.
 //! - Speeds are computed with the *measured* period, which is also reported on `k` (§10.4).
@@ -80,6 +81,13 @@ pub struct McuConfig {
     /// default; off makes the Mega speak exactly the original protocol.
     pub send_checksums: bool,
 }
+
+/// How long the solenoid stays on after a watchdog stop, µs (if it was on). The stop sets
+/// PWM 0 and the wheels coast down with the motors' ~0.1 s time constant: released with the
+/// stop, a carried part flew off at full speed (issue 17: a USB cable pulled out mid-carry,
+/// the part then beyond where the robot looks for it); 300 ms later the robot moves at about
+/// 5 % of its speed. A `G` or `K` within the hold keeps the solenoid as `L` last set it.
+pub const SOLENOID_HOLD_AFTER_STOP_US: u32 = 300_000;
 
 impl Default for McuConfig {
     fn default() -> Self {
@@ -236,6 +244,8 @@ pub struct Mcu {
     solenoid_requested: bool,
     last_feed_us: Option<u32>,
     timed_out: bool,
+    /// When the watchdog stopped the motors, while the solenoid's hold after it runs.
+    stopped_at_us: Option<u32>,
     last_tick_us: Option<u32>,
     pending: Option<PendingTick>,
     bad_messages: u8,
@@ -259,6 +269,7 @@ impl Mcu {
             solenoid_requested: false,
             last_feed_us: None,
             timed_out: true,
+            stopped_at_us: None,
             last_tick_us: None,
             pending: None,
             bad_messages: 0,
@@ -358,12 +369,13 @@ impl Mcu {
     fn feed_watchdog(&mut self, now_us: u32) {
         self.last_feed_us = Some(now_us);
         self.timed_out = false;
+        self.stopped_at_us = None;
     }
 
     /// The solenoid level to apply now: as last commanded by `L`, and released while the
-    /// watchdog has the motors stopped.
+    /// watchdog has the motors stopped, from [`SOLENOID_HOLD_AFTER_STOP_US`] after the stop.
     pub fn solenoid_on(&self) -> bool {
-        self.solenoid_requested && !self.timed_out
+        self.solenoid_requested && (!self.timed_out || self.stopped_at_us.is_some())
     }
 
     /// True while the watchdog has the motors stopped (also at boot, before the host speaks).
@@ -451,7 +463,13 @@ impl Mcu {
             Some(fed) => now_us.wrapping_sub(fed) > self.config.watchdog_timeout_us,
         };
         if expired && !self.timed_out {
+            self.stopped_at_us = Some(now_us);
+        }
+        if let Some(stopped) = self.stopped_at_us
+            && now_us.wrapping_sub(stopped) >= SOLENOID_HOLD_AFTER_STOP_US
+        {
             self.solenoid_requested = false;
+            self.stopped_at_us = None;
         }
         if expired {
             self.timed_out = true;
@@ -659,7 +677,7 @@ mod tests {
         assert!(mcu.solenoid_on());
         let mut t = 0;
         let mut stopped_at = None;
-        while t <= 200_000 {
+        while t <= 500_000 {
             let out = mcu.control_tick(t, &TickInputs::default());
             assert!(
                 !out.telemetry.as_bytes().is_empty(),
@@ -667,8 +685,9 @@ mod tests {
             );
             if stopped_at.is_none() && out.actuation.pwm == [0; 4] && t > 0 {
                 stopped_at = Some(t);
-                assert!(!out.actuation.solenoid_on);
             }
+            // The solenoid holds for 300 ms after the stop at 120 ms.
+            assert_eq!(out.actuation.solenoid_on, t < 420_000, "at {t} µs");
             if t <= 100_000 {
                 assert!(
                     out.actuation.pwm.iter().all(|&p| p > 0),
@@ -686,6 +705,32 @@ mod tests {
         assert!(out.actuation.pwm.iter().all(|&p| p > 0));
         // The solenoid was released by the trip and needs a new L.
         assert!(!mcu.solenoid_on());
+    }
+
+    #[test]
+    fn a_g_within_the_solenoids_hold_after_a_stop_keeps_the_part() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        send(&mut mcu, &mut host, &speeds(10.0), 0);
+        send(&mut mcu, &mut host, &[Command::Solenoid { on: true }], 0);
+        let mut t = 0;
+        while t <= 200_000 {
+            mcu.control_tick(t, &TickInputs::default());
+            t += PERIOD;
+        }
+        // Stopped at 120 ms, the solenoid still on; the host speaks again at 210 ms.
+        assert!(mcu.timed_out() && mcu.solenoid_on());
+        send(&mut mcu, &mut host, &speeds(10.0), 210_000);
+        let out = mcu.control_tick(220_000, &TickInputs::default());
+        assert!(!mcu.timed_out());
+        assert!(out.actuation.solenoid_on && out.actuation.pwm.iter().all(|&p| p > 0));
+        // Silent again: stopped at 340 ms, the solenoid still held when a G comes at 600 ms.
+        send(&mut mcu, &mut host, &speeds(10.0), 600_000);
+        assert!(
+            mcu.control_tick(600_000, &TickInputs::default())
+                .actuation
+                .solenoid_on
+        );
     }
 
     #[test]
