@@ -197,10 +197,11 @@ fn recording_in(out: &Path) -> std::path::PathBuf {
         .expect("a recording")
 }
 
+/// Ignored for a while after it failed once in CI (at `1b9de53`: every pick after the replug
+/// given up): the mission's clock ran on while the core held the robot, so its timeouts ran
+/// out on a robot that could not move, and the grip was judged on the switch from before the
+/// unplug (fixed: `Mission::hold`).
 #[test]
-#[ignore = "flaky: once in CI (at 1b9de53) every pick after the Mega's replug gave up, the \
-            switch never closing again; the cause is not found yet (issue 17). Run it with \
-            `cargo test -p ratf-host --test replug_pty -- --ignored`."]
 fn the_megas_cable_out_for_a_second_mid_round_holds_the_robot_and_round_1_scores_fully() {
     round_with_unplug("replug-mega", "1", DeviceKind::Mega, "mega", "10");
 }
