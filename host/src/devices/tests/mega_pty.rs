@@ -176,19 +176,26 @@ fn the_megas_own_watchdog_stops_the_wheels_when_the_host_goes_quiet() {
         .ticks_since(quiet)
         .find(|t| t.timed_out)
         .expect("a timed-out tick");
-    assert!(trip.stopped(), "{trip:?}");
+    // The wheels stop at once; the solenoid holds the part while they coast down.
+    assert_eq!(trip.pwm, [0; 4], "{trip:?}");
     assert!(
         trip.at > last_batch + Duration::from_millis(100),
         "the Mega's watchdog fired {:?} after the last batch, before its 100 ms",
         trip.at - last_batch
     );
-    bench.run_for(Duration::from_millis(200), None);
+    bench.run_for(Duration::from_millis(450), None);
     assert!(
         bench
             .mega
             .ticks_since(trip.at)
-            .all(|t| t.stopped() && t.timed_out)
+            .all(|t| t.pwm == [0; 4] && t.timed_out)
     );
+    // The solenoid lets go `SOLENOID_HOLD_AFTER_STOP_US` after the stop (a tick of slack for
+    // the wall clock the emulated Mega runs on).
+    let hold = Duration::from_micros(u64::from(ratf_protocol::mcu::SOLENOID_HOLD_AFTER_STOP_US));
+    let released = trip.at + hold + Duration::from_millis(20);
+    assert!(bench.mega.ticks_since(released).count() > 0);
+    assert!(bench.mega.ticks_since(released).all(|t| t.stopped()));
     assert_eq!(bench.mega.batches.last().map(|b| b.at), Some(last_batch));
 }
 
