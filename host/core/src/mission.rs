@@ -1098,6 +1098,18 @@ mod tests {
         )
     }
 
+    /// The events of action `A` picked and placed at its first attempt, the mission done.
+    fn action_a_done_at_the_first_attempt() -> [MissionEvent; 4] {
+        [
+            MissionEvent::ActionStarted {
+                action: A,
+                attempt: 1,
+            },
+            MissionEvent::Picked { slot: A.pick },
+            MissionEvent::Placed { slot: A.drop },
+            MissionEvent::Finished,
+        ]
+    }
     #[test]
     fn a_pick_and_place_goes_through_every_state() {
         let mut m = mission(vec![A]);
@@ -1110,18 +1122,7 @@ mod tests {
             },
             200,
         );
-        assert_eq!(
-            events,
-            [
-                MissionEvent::ActionStarted {
-                    action: A,
-                    attempt: 1
-                },
-                MissionEvent::Picked { slot: A.pick },
-                MissionEvent::Placed { slot: A.drop },
-                MissionEvent::Finished,
-            ]
-        );
+        assert_eq!(events, action_a_done_at_the_first_attempt());
         assert_eq!(m.actions().outcomes, [(A, true)]);
         assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
         assert!(m.is_finished());
@@ -1679,18 +1680,7 @@ mod tests {
             100,
         );
         let events: Vec<_> = events.into_iter().map(|(_, e)| e).collect();
-        assert_eq!(
-            events,
-            [
-                MissionEvent::ActionStarted {
-                    action: A,
-                    attempt: 1
-                },
-                MissionEvent::Picked { slot: A.pick },
-                MissionEvent::Placed { slot: A.drop },
-                MissionEvent::Finished,
-            ]
-        );
+        assert_eq!(events, action_a_done_at_the_first_attempt());
         assert_eq!(m.actions().outcomes, [(A, true)]);
         assert_eq!(m.navigator.halts, 1, "the navigator hears of the hold once");
     }

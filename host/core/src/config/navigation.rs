@@ -11,13 +11,14 @@ use super::limits;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NavigationConfig {
-    /// Top along-track speed, m/s. 0.65: the wheel limit `robot.max_wheel_speed_rad_s`
-    /// 24.3 rad/s × 0.03 m radius = 0.73 m/s at the rim with no load; 0.65 (89 %) leaves the
-    /// Mega's wheel PI headroom to reject the realistic world's load torque and battery sag;
-    /// corrections beyond the limit are scaled down with the whole twist (direction kept).
-    /// Chosen with `corner_blend_m` and `dock_speed_m_s` on the realistic world's tuning
-    /// seeds 1–10 and 61–70, calibrated: 4–5 % faster in every round than 0.60 / 0.05 /
-    /// 0.15, with fewer collisions (7 against 11 over 60 runs).
+    /// Top along-track speed, m/s. 0.60: the wheel limit `robot.max_wheel_speed_rad_s`
+    /// 24.3 rad/s × 0.03 m radius = 0.73 m/s at the rim with no load; 0.60 (82 %) leaves the
+    /// Mega's wheel PI headroom to reject load; corrections beyond the limit are scaled down
+    /// with the whole twist (direction kept). Tried with `corner_blend_m` 0.08 and
+    /// `dock_speed_m_s` 0.20: on the realistic world's tuning seeds 1–10 and 61–70
+    /// (calibrated) 4–5 % faster per round with 7 collisions against 11, but on the held-out
+    /// seeds 11–60 only 2–4 % faster with 47 collisions against 29 and 2 actions given up:
+    /// rejected.
     pub max_speed_m_s: f64,
     /// Along-track acceleration limit, m/s². 2.0: friction allows μg = 0.7 × 9.81 =
     /// 6.9 m/s² (`traction.friction_coefficient`), the motor (τ = 0.1 s) reaches 0.6 m/s in
@@ -32,12 +33,12 @@ pub struct NavigationConfig {
     /// mostly where it moves slowly, and beyond the 0.73 m/s rim limit the body twist is
     /// scaled down as a whole (direction kept). 2.0 was 4 % slower in the benchmark.
     pub max_yaw_rate_rad_s: f64,
-    /// Length over which a corner's change of direction is spread, m. 0.08: tuned in the
-    /// simulator (with `max_speed_m_s`). A corner of angle φ at speed v changes the velocity
-    /// by 2·v·sin(φ/2) within about this length; keeping that within `max_accel_m_s2` gives
-    /// the corner speed v = √(a·ℓ / (2·sin(φ/2))) (0.34 m/s at 90°). On the first wave's
-    /// graph 0.08 overshot a corner next to a divider into a collision; with our road map's
-    /// centred rows (`planning::our_map`) it does not on the tuning seeds.
+    /// Length over which a corner's change of direction is spread, m. 0.05: tuned in the
+    /// simulator. A corner of angle φ at speed v changes the velocity by 2·v·sin(φ/2)
+    /// within about this length; keeping that within `max_accel_m_s2` gives the corner
+    /// speed v = √(a·ℓ / (2·sin(φ/2))) (0.27 m/s at 90°). 0.08 was 2 % faster in the
+    /// benchmark but overshot a corner next to a divider into a collision (the graph's rows
+    /// leave 10–20 mm); see `max_speed_m_s` for a later try.
     pub corner_blend_m: f64,
     /// Cross-track correction gain, 1/s: sideways speed per metre off the path. 3.0:
     /// assumption, tuned in the simulator (the 50 Hz loop with ~40 ms of telemetry and motor
@@ -63,10 +64,9 @@ pub struct NavigationConfig {
     /// Length of the straight, slow docking approach into a slot, m. 0.05: assumption; the
     /// robot is square to the face over this length so the switch (±25 mm, ±15°) closes.
     pub dock_length_m: f64,
-    /// Docking speed cap, m/s. 0.20: tuned with `max_speed_m_s` (0.15 before, 0.25 was
-    /// faster still with more collisions). The braking curve and the position hold bring the
-    /// speed down before the pick pose, and the switch, closing about 5 mm before it, stops
-    /// the robot at once.
+    /// Docking speed cap, m/s. 0.15: assumption. The braking curve and the position hold
+    /// bring the speed to ~0.05 m/s by the time the switch closes (5 mm before the pick
+    /// pose), so the robot coasts ~5 mm, well inside the 15 mm gap to the plate.
     pub dock_speed_m_s: f64,
     /// How far beyond the pick pose the robot creeps straight on when it arrives there and
     /// the switch is still open, m. 0.04: a 90 mm part in a 130 mm slot may stand 20 mm
@@ -97,11 +97,11 @@ pub struct NavigationConfig {
 impl Default for NavigationConfig {
     fn default() -> Self {
         Self {
-            max_speed_m_s: 0.65,
+            max_speed_m_s: 0.60,
             max_accel_m_s2: 2.0,
             max_decel_m_s2: 2.0,
             max_yaw_rate_rad_s: 3.5,
-            corner_blend_m: 0.08,
+            corner_blend_m: 0.05,
             cross_track_gain_per_s: 3.0,
             heading_gain_per_s: 6.0,
             lag_compensation_s: 0.12,
@@ -109,7 +109,7 @@ impl Default for NavigationConfig {
             goal_tolerance_m: 0.005,
             goal_heading_tolerance_deg: 1.0,
             dock_length_m: 0.05,
-            dock_speed_m_s: 0.20,
+            dock_speed_m_s: 0.15,
             dock_creep_m: 0.04,
             dock_creep_speed_m_s: 0.05,
             rotate_after_m: 0.10,
