@@ -1,6 +1,7 @@
 //! Measuring the firmware's watchdog: how long after the last `G`/`K` it stops the motors
 //! and releases the solenoid, while telemetry keeps flowing (protocol `mcu`: "if no `G` or
-//! `K` arrived for more than 100 ms, the next tick stops every motor at once").
+//! `K` arrived for more than 100 ms, the next tick stops every motor at once", and the
+//! solenoid follows `SOLENOID_HOLD_AFTER_STOP_US` later).
 
 use crate::host_link::{HostLink, wheel_speeds};
 use crate::shield::signed_pwms;
@@ -13,12 +14,15 @@ pub struct WatchdogRun {
     /// Cycle at which the last feeding batch (`G H I J L Z`) was completely delivered: the
     /// earliest the firmware can have applied it (strict mode applies a batch at its `Z`).
     pub last_feed_cycle: u64,
-    /// First sample (every 100 µs) at which anything was no longer driven (a PWM 0 or the
-    /// solenoid low): the trip began. `None` if never.
+    /// First sample (every 100 µs) at which a motor was no longer driven (a PWM 0): the trip
+    /// began. `None` if never.
     pub trip_cycle: Option<u64>,
-    /// First sample with every PWM 0 and the solenoid low: the stop is complete.
+    /// First sample with every PWM 0: the motors' stop is complete.
     pub stop_cycle: Option<u64>,
-    /// After the stop, every sample until the end showed PWM 0 and the solenoid low.
+    /// First sample with the solenoid low: the part let go.
+    pub release_cycle: Option<u64>,
+    /// After the stop every sample until the end showed PWM 0, and after the release the
+    /// solenoid low.
     pub stayed_stopped: bool,
     /// Complete telemetry batches received from the last feed to the end of the run.
     pub batches_after_feed: usize,
@@ -36,9 +40,14 @@ impl WatchdogRun {
         self.ms_after_feed(self.trip_cycle)
     }
 
-    /// Time from the last feed to the complete stop (every PWM 0, solenoid low), ms.
+    /// Time from the last feed to the motors' complete stop (every PWM 0), ms.
     pub fn stop_ms(&self) -> Option<f64> {
         self.ms_after_feed(self.stop_cycle)
+    }
+
+    /// Time from the last feed to the solenoid's release, ms.
+    pub fn release_ms(&self) -> Option<f64> {
+        self.ms_after_feed(self.release_cycle)
     }
 }
 
@@ -61,26 +70,31 @@ pub fn measure_watchdog(hil: &mut Hil, observe_ms: u64) -> WatchdogRun {
     let end_cycle = last_feed_cycle + observe_ms * CYCLES_PER_MS;
     let mut trip_cycle = None;
     let mut stop_cycle = None;
+    let mut release_cycle = None;
     let mut stayed_stopped = true;
     while hil.cycle() < end_cycle {
         hil.run_for_us(100);
         let pwms = signed_pwms(&hil.shield());
         let solenoid = hil.solenoid_on();
-        let driven = pwms.iter().all(|&p| p != 0) && solenoid;
-        let stopped = pwms == [0; 4] && !solenoid;
-        if trip_cycle.is_none() && !driven {
+        if trip_cycle.is_none() && pwms.contains(&0) {
             trip_cycle = Some(hil.cycle());
         }
         match stop_cycle {
-            None if stopped => stop_cycle = Some(hil.cycle()),
+            None if pwms == [0; 4] => stop_cycle = Some(hil.cycle()),
             None => {}
-            Some(_) => stayed_stopped &= stopped,
+            Some(_) => stayed_stopped &= pwms == [0; 4],
+        }
+        match release_cycle {
+            None if !solenoid => release_cycle = Some(hil.cycle()),
+            None => {}
+            Some(_) => stayed_stopped &= !solenoid,
         }
     }
     WatchdogRun {
         last_feed_cycle,
         trip_cycle,
         stop_cycle,
+        release_cycle,
         stayed_stopped,
         batches_after_feed: hil.telemetry_batches().len() - batches_before,
         end_cycle: hil.cycle(),

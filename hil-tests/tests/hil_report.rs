@@ -59,7 +59,7 @@ fn run() -> Result<HilReport, String> {
     if !hil.run_until_telemetry_batches(1, 60 * CYCLES_PER_MS) {
         return Err("no telemetry within 60 ms of boot".to_owned());
     }
-    let watchdog = measure_watchdog(&mut hil, 300);
+    let watchdog = measure_watchdog(&mut hil, 500);
     let latency_idle = telemetry_latency_us(false, 10).map_err(|e| e.to_string())?;
     let latency_driving = telemetry_latency_us(true, 10).map_err(|e| e.to_string())?;
 

@@ -1,41 +1,56 @@
 //! The host's commands as the motor shield and the pins see them: the watchdog (motors off
-//! and solenoid released 100 ms after the last `G`/`K`, telemetry still flowing, a new `G`
-//! resumes), `K` direct PWM with its slew limit, `L` solenoid, and the switch on `s`.
+//! 100 ms after the last `G`/`K` and the solenoid released 300 ms after that, telemetry still
+//! flowing, a new `G` resumes), `K` direct PWM with its slew limit, `L` solenoid, and the
+//! switch on `s`.
 
 use ratf_hil_tests::host_link::{HostLink, command_all_wheels, wheel_speeds};
 use ratf_hil_tests::shield::signed_pwms;
 use ratf_hil_tests::sim::{CYCLES_PER_MS, Hil};
 use ratf_hil_tests::watchdog::measure_watchdog;
+use ratf_protocol::mcu::SOLENOID_HOLD_AFTER_STOP_US;
 use ratf_protocol::messages::{Command, Wheel};
 
 #[test]
 fn watchdog_stops_motors_and_solenoid_and_telemetry_keeps_flowing() {
     let mut hil = Hil::booted();
-    let run = measure_watchdog(&mut hil, 300);
+    let run = measure_watchdog(&mut hil, 500);
     println!(
-        "{run:?}: trip began {:?} ms and was complete {:?} ms after the last G",
+        "{run:?}: trip began {:?} ms, the motors were stopped {:?} ms and the solenoid released \
+         {:?} ms after the last G",
         run.trip_ms(),
-        run.stop_ms()
+        run.stop_ms(),
+        run.release_ms()
     );
     let trip_ms = run.trip_ms().unwrap_or(f64::INFINITY);
     let stop_ms = run
         .stop_ms()
-        .expect("motors still driven or solenoid still on 300 ms after the last G");
+        .expect("motors still driven 500 ms after the last G");
+    let release_ms = run
+        .release_ms()
+        .expect("solenoid still on 500 ms after the last G");
     // The trip happens at the first control tick more than 100 ms after the last feed
     // (≤ 120 ms after it), and the I2C writes that turn the motors off follow at once.
     assert!(
         trip_ms > 100.0,
-        "a motor stopped or the solenoid dropped {trip_ms:.2} ms after the last G: too early"
+        "a motor stopped {trip_ms:.2} ms after the last G: too early"
     );
     assert!(
         stop_ms <= 125.0,
-        "motors and solenoid all off only {stop_ms:.2} ms after the last G, expected ≤ 125"
+        "motors all off only {stop_ms:.2} ms after the last G, expected ≤ 125"
+    );
+    // The solenoid holds the part while the wheels coast down, and lets go at the tick
+    // `SOLENOID_HOLD_AFTER_STOP_US` after the stop's (within the stop's I2C writes).
+    let hold_ms = f64::from(SOLENOID_HOLD_AFTER_STOP_US) / 1000.0;
+    assert!(
+        (release_ms - trip_ms - hold_ms).abs() < 10.0,
+        "the solenoid let go {release_ms:.2} ms after the last G, the motors stopped at \
+         {trip_ms:.2} ms: expected {hold_ms} ms later"
     );
     assert!(run.stayed_stopped, "something restarted without a G/K");
-    // 300 ms without a host is 15 control periods: telemetry never stopped.
+    // 500 ms without a host is 25 control periods: telemetry never stopped.
     assert!(
-        run.batches_after_feed >= 14,
-        "only {} telemetry batches in the 300 ms after the last G",
+        run.batches_after_feed >= 24,
+        "only {} telemetry batches in the 500 ms after the last G",
         run.batches_after_feed
     );
 
