@@ -345,6 +345,13 @@ impl Navigator for RouteNavigator {
                     &slot,
                     &self.config.navigation,
                 )
+                .map(|route| {
+                    if dock {
+                        route
+                    } else {
+                        route.carrying_part_in()
+                    }
+                })
             }
             Driving::Original => {
                 self.follower = Box::new(
@@ -427,6 +434,21 @@ mod tests {
             Rules::for_round(round),
         )
         .unwrap()
+    }
+
+    #[test]
+    fn our_drops_carry_the_part_in_and_our_picks_do_not() {
+        let config = Config::default();
+        let field = Field::competition();
+        let (pick, drop) = (
+            field.incoming_slot(0).unwrap().waypoint,
+            field.outgoing_slot(0).unwrap().waypoint,
+        );
+        let mut navigator = RouteNavigator::new(&config, Driving::Ours);
+        navigator.go_to(0, field.start_pose(), pick, true);
+        assert!(!navigator.route().unwrap().carries_part_in());
+        navigator.go_to(0, field.start_pose(), drop, false);
+        assert!(navigator.route().unwrap().carries_part_in());
     }
 
     fn run_all(mut actions: TaskActions) -> Vec<Action> {

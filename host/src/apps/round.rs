@@ -1021,25 +1021,25 @@ mod tests {
 
     #[test]
     fn calibrating_first_turns_a_lost_realistic_round_into_a_full_score() {
-        // Seed 23's world loses round 2 uncalibrated (5 points of 6, 1 action given up): of
-        // rounds 1–3 at seeds 1–40 it is the only one the uncalibrated robot does not score
-        // fully since the planner times our routes. Which round the uncalibrated robot loses
-        // moves with every change of its motion (seed 2's round 3 and seed 17's round 1 were
-        // pinned here before). The calibration drive fixes the robot's beliefs, not the
-        // world; the calibrated run still grazes once, which this test does not pin.
+        // Seed 109's world loses round 1 uncalibrated (3 points of 4, 1 action given up); of
+        // rounds 1–3 at the tuning seeds 1–10 and 61–110 only it and seed 70's rounds 1 and 2
+        // lose uncalibrated since the follower waits for the slot's line before it carries a
+        // part in. Which round the uncalibrated robot loses moves with every change of its
+        // motion (seed 23's round 2, seed 2's round 3 and seed 17's round 1 were pinned here
+        // before). The calibration drive fixes the robot's beliefs, not the world.
         let mut world = Config::default();
         world.sim.world = WorldProfile::Realistic;
-        world.sim.seed = 23;
-        let options = RoundOptions::new(2, 23, Policy::Ours);
+        world.sim.seed = 109;
+        let options = RoundOptions::new(1, 109, Policy::Ours);
         let uncalibrated = run_in_world(&world, &world, &options, &mut [], |_| {}).unwrap();
-        assert!(uncalibrated.points < 6, "{uncalibrated:?}");
+        assert!(uncalibrated.points < 4, "{uncalibrated:?}");
         let mut calibrated = world.clone();
         calibrate::run_in_sim(&world, true)
             .unwrap()
             .calibration
             .apply(&mut calibrated);
         let report = run_in_world(&world, &calibrated, &options, &mut [], |_| {}).unwrap();
-        assert_eq!((report.points, report.timeouts), (6, 0), "{report:?}");
+        assert_eq!((report.points, report.timeouts), (4, 0), "{report:?}");
     }
 
     #[test]

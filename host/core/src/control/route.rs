@@ -19,6 +19,7 @@ pub struct Route {
     goal_yaw_rad: f64,
     dock_length_m: f64,
     turn_window_m: Option<(f64, f64)>,
+    carries_part_in: bool,
 }
 
 /// Where a position projects onto a route.
@@ -64,6 +65,7 @@ impl Route {
             goal_yaw_rad,
             dock_length_m: dock_length_m.max(0.0),
             turn_window_m: None,
+            carries_part_in: false,
         })
     }
 
@@ -74,6 +76,19 @@ impl Route {
         let from_m = from_m.clamp(0.0, length);
         self.turn_window_m = Some((from_m, to_m.clamp(from_m, length)));
         self
+    }
+
+    /// This route with a part carried into the goal's slot: its last segment takes the
+    /// part between the slot's dividers, so the follower goes in only once on the
+    /// segment's line (`control::follower`).
+    pub fn carrying_part_in(mut self) -> Self {
+        self.carries_part_in = true;
+        self
+    }
+
+    /// Whether the last segment takes a carried part into a slot ([`Self::carrying_part_in`]).
+    pub fn carries_part_in(&self) -> bool {
+        self.carries_part_in
     }
 
     /// Where the robot may turn, as arc lengths (m), if the planner said.
