@@ -7,8 +7,8 @@
 //! (original-system.md §10.1).
 //!
 //! - **Opening resets the board** (DTR): nothing is written until the Mega has spoken (its
-//!   `r` or a telemetry batch) or `[link] mega_sync_timeout_ms` has passed, so the
-//!   bootloader never sees our frames.
+//!   `r`) or `[link] mega_sync_timeout_ms` has passed, so the bootloader never sees our
+//!   frames; telemetry read before that `r` was sent before the reset and is dropped.
 //! - **Unplug**: a read error or a vanished port reports [`Input::DeviceFault`] with
 //!   `reconnecting` (the core holds the robot still until the Mega streams again), drops the write half, and the thread reopens the port every
 //!   `[link] reconnect_period_ms` and resynchronises ([`MegaLink::reset`], wait for `r`)
@@ -424,18 +424,29 @@ impl MegaThread {
         let opened = Instant::now();
         let mut buf = [0u8; 512];
         let mut inputs = Vec::new();
+        // Telemetry read before this session's `r` was sent before the reset (it waited in
+        // the port's buffers): it would tell the core the Mega speaks again, with the wheel
+        // counters of its life before. Dropped until the `r`, or until the sync timeout for a
+        // Mega that does not reset on opening.
+        let mut rebooted = false;
         while !self.shared.quitting() {
             match port.read(&mut buf) {
                 Ok(0) => return "the port closed".to_owned(),
                 Ok(n) => {
                     let now = self.clock.now();
                     let handle = &self.handle;
-                    self.link.feed(&buf[..n], now.as_us(), |event| {
-                        handle.note_event(&event);
-                        inputs.push(match event {
-                            MegaEvent::Telemetry(telemetry) => Input::Wheels(telemetry),
-                            MegaEvent::Reset { .. } => Input::MegaReset,
-                        });
+                    let unsynced_too_long = opened.elapsed() >= self.settings.sync_timeout;
+                    self.link.feed(&buf[..n], now.as_us(), |event| match event {
+                        MegaEvent::Telemetry(telemetry) if rebooted || unsynced_too_long => {
+                            handle.note_event(&event);
+                            inputs.push(Input::Wheels(telemetry));
+                        }
+                        MegaEvent::Telemetry(_) => {}
+                        MegaEvent::Reset { .. } => {
+                            rebooted = true;
+                            handle.note_event(&event);
+                            inputs.push(Input::MegaReset);
+                        }
                     });
                     self.handle.note_link_stats(self.link.stats());
                     if !inputs.is_empty() && writer.is_some() {

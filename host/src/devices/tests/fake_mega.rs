@@ -87,6 +87,9 @@ pub(crate) struct FakeMega {
     noise_to_mega: Option<SimRng>,
     /// Bytes the host wrote before the Mega's `r`, one entry per time the port was opened.
     pub(crate) before_boot: Vec<Vec<u8>>,
+    /// On each opening, one telemetry batch of the board's life before the reset reaches the
+    /// host first (it waited in the port's buffers).
+    pub(crate) stale_batch_on_open: bool,
     /// Every batch the host wrote after the `r`.
     pub(crate) batches: Vec<HostBatch>,
     /// Every control tick.
@@ -113,6 +116,7 @@ impl FakeMega {
             noise_to_host: None,
             noise_to_mega: None,
             before_boot: Vec::new(),
+            stale_batch_on_open: false,
             batches: Vec::new(),
             ticks: Vec::new(),
             boots: Vec::new(),
@@ -161,6 +165,12 @@ impl FakeMega {
                 self.plugged_at = None;
             } else if self.plugged_at.is_none() {
                 // Opening the port pulled DTR: the board resets, silent until it boots.
+                if self.stale_batch_on_open {
+                    let stale = self
+                        .mcu
+                        .control_tick(self.now_us(now), &TickInputs::default());
+                    self.pty.write(stale.telemetry.as_bytes());
+                }
                 self.plugged_at = Some(now);
                 self.before_boot.push(Vec::new());
                 self.booted = false;

@@ -68,3 +68,40 @@ fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
         stats.batches
     );
 }
+
+#[test]
+fn telemetry_from_before_the_reset_is_dropped_and_the_reset_comes_first() {
+    let dir = TempDir::new("mega-session-stale");
+    let pty = Pty::open(&dir.0.join("mega"));
+    let settings = settings(pty.path());
+    let port = open_port(&settings.port, settings.baud).expect("the pty opens");
+    let shared = Shared::new();
+    let (tx, rx) = crate::devices::inbox(&shared);
+    let handle = MegaHandle::new(settings.link, settings.controller);
+    let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
+    let session = std::thread::spawn(move || thread.session(port));
+    let mut mega = FakeMega::new(pty, BOOT_DELAY);
+    mega.stale_batch_on_open = true;
+    let mut inputs = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while inputs
+        .iter()
+        .filter(|i| matches!(i, Input::Wheels(_)))
+        .count()
+        < 5
+    {
+        assert!(Instant::now() < deadline, "inputs so far: {inputs:?}");
+        mega.service(Instant::now() + Duration::from_millis(2));
+        while let Ok(message) = rx.try_recv() {
+            if let Message::Input(stamped) = message {
+                inputs.push(stamped.input);
+            }
+        }
+    }
+    shared.request_quit();
+    assert_eq!(session.join().expect("no panic"), "quit");
+    assert!(
+        matches!(inputs.first(), Some(Input::MegaReset)),
+        "the first input is the reset, not the batch from before it: {inputs:?}"
+    );
+}
