@@ -1,9 +1,11 @@
-//! One session of the Mega's thread on a noisy line, with the host's own link counters in
-//! view (they live in the thread, so this test runs the session itself).
+//! Sessions of the Mega's thread, run by the test itself (the host's link counters live in
+//! the thread): on a noisy line, and with a batch from before the reset waiting in the port.
 
+use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
 use ratf_core::runtime::Input;
+use serialport::SerialPort;
 
 use super::{MegaHandle, MegaThread, open_port};
 use crate::devices::tests::fake_mega::FakeMega;
@@ -11,16 +13,32 @@ use crate::devices::tests::mega_bench::{BOOT_DELAY, settings};
 use crate::devices::tests::pty::{Pty, TempDir};
 use crate::devices::{Clock, Message, Shared};
 
-#[test]
-fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
-    let dir = TempDir::new("mega-session");
+/// A Mega's thread for a fresh pseudo-terminal, its session not started: the folder (kept for
+/// the test's life), the pty, the run's quit flag, the loop's inbox, the thread and its port.
+fn session_on_a_pty(
+    name: &str,
+) -> (
+    TempDir,
+    Pty,
+    Shared,
+    Receiver<Message>,
+    MegaThread,
+    Box<dyn SerialPort>,
+) {
+    let dir = TempDir::new(name);
     let pty = Pty::open(&dir.0.join("mega"));
     let settings = settings(pty.path());
     let port = open_port(&settings.port, settings.baud).expect("the pty opens");
     let shared = Shared::new();
     let (tx, rx) = crate::devices::inbox(&shared);
     let handle = MegaHandle::new(settings.link, settings.controller);
-    let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
+    let thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
+    (dir, pty, shared, rx, thread, port)
+}
+
+#[test]
+fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
+    let (_dir, pty, shared, rx, mut thread, port) = session_on_a_pty("mega-session");
     let session = std::thread::spawn(move || {
         let reason = thread.session(port);
         (reason, thread.link.stats())
@@ -71,14 +89,7 @@ fn noise_from_the_mega_is_counted_by_the_hosts_link_and_telemetry_flows_on() {
 
 #[test]
 fn telemetry_from_before_the_reset_is_dropped_and_the_reset_comes_first() {
-    let dir = TempDir::new("mega-session-stale");
-    let pty = Pty::open(&dir.0.join("mega"));
-    let settings = settings(pty.path());
-    let port = open_port(&settings.port, settings.baud).expect("the pty opens");
-    let shared = Shared::new();
-    let (tx, rx) = crate::devices::inbox(&shared);
-    let handle = MegaHandle::new(settings.link, settings.controller);
-    let mut thread = MegaThread::new(settings, Clock::start(), tx, handle, shared.clone());
+    let (_dir, pty, shared, rx, mut thread, port) = session_on_a_pty("mega-session-stale");
     let session = std::thread::spawn(move || thread.session(port));
     let mut mega = FakeMega::new(pty, BOOT_DELAY);
     mega.stale_batch_on_open = true;
