@@ -98,8 +98,9 @@ const ENTRY_CROSS_FREE_M: f64 = 0.004;
 /// Cross-track error beyond [`ENTRY_CROSS_FREE_M`] at which that along-track speed
 /// reaches zero, m: the robot first comes onto the slot's centre line, then goes in (the
 /// cross-track correction goes on meanwhile). Without it the lag-compensated corner into
-/// the slot turns down about v × `lag_compensation_s` early, and in the realistic world's
-/// tuning seeds 81–110 the carried part caught a divider's tip in 12 of 17 collisions.
+/// the slot turns down about v × `lag_compensation_s` early, and over the realistic world's
+/// tuning seeds 1–10 and 81–110 (calibrated) the carried part caught a divider's tip there
+/// in 13 of 17 collisions.
 const ENTRY_CROSS_STOP_M: f64 = 0.008;
 
 /// Our follower.
