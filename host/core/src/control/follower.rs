@@ -149,6 +149,12 @@ impl Follower {
     }
 }
 
+/// The factor on the along-track speed for an `error`: 1 up to `free`, falling linearly to 0
+/// over the next `stop` (the heading's lag, the cross-track error into a slot).
+fn slow_down(error: f64, free: f64, stop: f64) -> f64 {
+    (1.0 - (error - free) / stop).clamp(0.0, 1.0)
+}
+
 /// `world` (m/s, world frame) in the frame of a robot with yaw `yaw_rad`.
 pub fn to_body(world: Vec2, yaw_rad: f64) -> Vec2 {
     world.rotated(-yaw_rad)
@@ -241,8 +247,7 @@ impl PathFollower for Follower {
         // Outside the turn window the robot may not be turned: while it lags the plan,
         // slow down so it finishes turning where there is room.
         let lag_rad = wrap_angle(yaw_plan - predicted_yaw) * heading.turn_rad.signum();
-        let heading_factor =
-            (1.0 - (lag_rad.abs() - HEADING_FREE_RAD) / HEADING_STOP_RAD).clamp(0.0, 1.0);
+        let heading_factor = slow_down(lag_rad.abs(), HEADING_FREE_RAD, HEADING_STOP_RAD);
         let heading_factor = if lag_rad < 0.0 && at.s_m < heading.to_m {
             1.0
         } else {
@@ -251,7 +256,7 @@ impl PathFollower for Follower {
         let cross = at.point - position;
         // A carried part goes into its slot only once on the slot's centre line.
         let cross_factor = if last_segment && route.carries_part_in() {
-            (1.0 - (cross.norm() - ENTRY_CROSS_FREE_M) / ENTRY_CROSS_STOP_M).clamp(0.0, 1.0)
+            slow_down(cross.norm(), ENTRY_CROSS_FREE_M, ENTRY_CROSS_STOP_M)
         } else {
             1.0
         };
