@@ -8,6 +8,7 @@ pub mod check;
 pub mod drive;
 pub mod fault_bench;
 pub mod fault_round;
+pub mod latency_histogram;
 pub mod loc_bench;
 pub mod nav_bench;
 pub mod operator_script;

@@ -21,6 +21,7 @@ use ratf_core::runtime::{
     Core, Event, Flow, Input, OperatorCommand, Phase, StepView, Tap, Timestamp, run,
 };
 
+use crate::apps::latency_histogram::LatencyHistogram;
 use crate::devices::lidar::{self, LidarHandle, LidarSettings};
 use crate::devices::mega::{self, MegaHandle, MegaSettings, open_port};
 use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
@@ -159,6 +160,8 @@ pub struct RunReport {
     pub stop_written: bool,
     /// From an input's arrival to its references written.
     pub latency: Latency,
+    /// The same latencies as a histogram, to pool with other runs' (`ratf soak`).
+    pub latency_histogram: LatencyHistogram,
     /// Reference batches the host watchdog wrote (the core stalled).
     pub watchdog_batches: u64,
     /// CPU time (user + system) per second of robot time.
@@ -558,6 +561,7 @@ pub fn run_robot_with(
         inputs_dropped: shared.inputs_dropped(),
         stop_written,
         latency: Latency::of(devices.inner().inner().latencies_us()),
+        latency_histogram: LatencyHistogram::of(devices.inner().inner().latencies_us()),
         watchdog_batches: mega.batches_written().1,
         cpu_per_s: cpu_s / robot_s.max(1e-9),
         max_rss_kib: max_rss_kib(),

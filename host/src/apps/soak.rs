@@ -10,6 +10,9 @@
 //!
 //! - the process's resident memory now (`VmRSS`, not the peak);
 //! - the latency from an input's arrival to its references written (p50, p99, max);
+//!   pooled over stretches of `window_s` too ([`LatencyWindow`]): a round's p99 is its
+//!   ~25th-largest input and swings with one busy moment of the machine, ten minutes' is
+//!   what "stable over the hour" is read from;
 //! - telemetry batches: those that entered the Mega's terminal (the world counts them),
 //!   those the robot's link delivered, those it reported lost (incomplete, corrupt, out
 //!   of sequence), those written after the last one the robot read (its Mega thread stops
@@ -26,6 +29,7 @@ use std::time::{Duration, Instant};
 
 use ratf_core::config::{Config, ImuDevice, Policy};
 
+use super::latency_histogram::LatencyHistogram;
 use super::round::{ROUND_LIMIT_S, RoundOptions};
 use super::run::{Latency, Outcome, RunError, RunOptions, run_robot};
 use super::serve_pty::{ServeError, ServeEvent, ServeOptions, ServeReport, serve};
@@ -97,6 +101,29 @@ pub struct SoakOptions {
     /// Keep every recording (otherwise each is deleted once read back, after the last
     /// round).
     pub keep_recordings: bool,
+    /// Length of the stretches the latencies are pooled over, s ([`LatencyWindow`]).
+    pub window_s: f64,
+}
+
+/// The latencies of the rounds that ended within one stretch of a soak's wall time, pooled.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LatencyWindow {
+    /// Wall time since the soak started where the stretch begins, s.
+    pub from_s: f64,
+    /// Where it ends, s.
+    pub to_s: f64,
+    /// Rounds that ended in it.
+    pub rounds: u32,
+    /// Their inputs' latencies.
+    pub histogram: LatencyHistogram,
+}
+
+impl LatencyWindow {
+    /// The pooled 99th percentile, µs (within [`super::latency_histogram::BUCKET_US`] above
+    /// the exact one).
+    pub fn p99_us(&self) -> u32 {
+        self.histogram.quantile_us(0.99)
+    }
 }
 
 /// What one round of a soak measured.
@@ -163,6 +190,9 @@ pub struct SoakReport {
     pub wall_s: f64,
     /// Stopped early (Ctrl-C, SIGTERM, a panic).
     pub interrupted: bool,
+    /// The latencies pooled per stretch of `SoakOptions::window_s`, in order (stretches in
+    /// which no round ended are left out).
+    pub latency_windows: Vec<LatencyWindow>,
 }
 
 impl SoakReport {
@@ -183,6 +213,20 @@ impl SoakReport {
     pub fn p99_range_us(&self) -> (u32, u32) {
         let p99 = self.rounds.iter().map(|r| r.latency.p99_us);
         (p99.clone().min().unwrap_or(0), p99.max().unwrap_or(0))
+    }
+
+    /// The largest relative change of a stretch's pooled p99 from the first stretch's, over
+    /// the stretches holding at least half as many inputs as the first (a last stretch with
+    /// a round or two in it is as noisy as one round); `None` with fewer than two such.
+    pub fn p99_window_drift(&self) -> Option<f64> {
+        let (first, rest) = self.latency_windows.split_first()?;
+        let reference = f64::from(first.p99_us());
+        let full = first.histogram.count() / 2;
+        rest.iter()
+            .filter(|w| w.histogram.count() >= full.max(1))
+            .map(|w| (f64::from(w.p99_us()) / reference - 1.0).abs())
+            .reduce(f64::max)
+            .filter(|_| reference > 0.0)
     }
 
     /// Telemetry batches lost without the link reporting them, over all rounds.
@@ -258,12 +302,27 @@ pub fn soak(
     })?;
     let started = Instant::now();
     let mut rounds = Vec::new();
+    let mut latency_windows: Vec<LatencyWindow> = Vec::new();
+    let window_s = options.window_s.max(1.0);
     let mut index = 0u32;
     while !shared.quitting() && started.elapsed().as_secs_f64() < options.duration_s {
         index += 1;
         let seed = options.first_seed.wrapping_add(u64::from(index - 1));
-        let mut round = one_round(config, options, shared, index, seed)?;
+        let (mut round, histogram) = one_round(config, options, shared, index, seed)?;
         round.at_s = started.elapsed().as_secs_f64();
+        let from_s = (round.at_s / window_s).floor() * window_s;
+        match latency_windows.last_mut() {
+            Some(window) if window.from_s == from_s => {
+                window.rounds += 1;
+                window.histogram.merge(&histogram);
+            }
+            _ => latency_windows.push(LatencyWindow {
+                from_s,
+                to_s: from_s + window_s,
+                rounds: 1,
+                histogram,
+            }),
+        }
         on_round(&round);
         rounds.push(round);
     }
@@ -277,17 +336,18 @@ pub fn soak(
         rounds,
         wall_s: started.elapsed().as_secs_f64(),
         interrupted: shared.quitting(),
+        latency_windows,
     })
 }
 
-/// One round: the world on a thread, the robot on this one.
+/// One round: the world on a thread, the robot on this one; with its latencies' histogram.
 fn one_round(
     config: &Config,
     options: &SoakOptions,
     soak_shared: &Shared,
     index: u32,
     seed: u64,
-) -> Result<SoakRound, SoakError> {
+) -> Result<(SoakRound, LatencyHistogram), SoakError> {
     let dev = options.out.join("dev");
     let serve_options = ServeOptions {
         dir: dev.clone(),
@@ -381,7 +441,7 @@ fn one_round(
         let read_up_to = read_up_to(&served.mega_batch_sequences, last);
         let unread_at_end = written - read_up_to;
         let unaccounted = read_up_to.saturating_sub(received.saturating_add(reported));
-        Ok(SoakRound {
+        let round = SoakRound {
             index,
             seed,
             at_s: 0.0,
@@ -401,7 +461,8 @@ fn one_round(
             recording_bytes,
             inputs: run.inputs,
             recording_check: Err("not read back yet".to_owned()),
-        })
+        };
+        Ok((round, run.latency_histogram))
     })
 }
 
@@ -482,7 +543,41 @@ mod tests {
             rounds,
             wall_s: 1.0,
             interrupted: false,
+            latency_windows: Vec::new(),
         }
+    }
+
+    fn window(k: u32, samples_us: &[u32]) -> LatencyWindow {
+        LatencyWindow {
+            from_s: f64::from(k) * 600.0,
+            to_s: f64::from(k + 1) * 600.0,
+            rounds: 1,
+            histogram: LatencyHistogram::of(samples_us),
+        }
+    }
+
+    #[test]
+    fn the_p99_drift_compares_each_full_stretch_with_the_first() {
+        let mut soak = report(vec![round(1, 1, 1)]);
+        let steady: Vec<u32> = (1..=100).map(|k| k * 10).collect();
+        soak.latency_windows = vec![window(0, &steady)];
+        assert_eq!(
+            soak.p99_window_drift(),
+            None,
+            "one stretch: nothing to compare"
+        );
+        // p99 990 µs → 1 000 µs: the bucket's upper edge, 1 000 → 1 010.
+        let slower: Vec<u32> = steady.iter().map(|us| us + 10).collect();
+        soak.latency_windows.push(window(1, &slower));
+        let drift = soak.p99_window_drift().unwrap();
+        assert!((drift - 0.01).abs() < 1e-9, "{drift}");
+        // A last stretch of a few inputs does not count, however slow.
+        soak.latency_windows.push(window(2, &[5_000, 5_000]));
+        assert!((soak.p99_window_drift().unwrap() - 0.01).abs() < 1e-9);
+        // A full one that is twice as slow does.
+        let doubled: Vec<u32> = steady.iter().map(|us| us * 2).collect();
+        soak.latency_windows.push(window(3, &doubled));
+        assert!(soak.p99_window_drift().unwrap() > 0.9);
     }
 
     #[test]

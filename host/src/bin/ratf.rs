@@ -137,6 +137,10 @@ struct SoakArgs {
     /// Keep every round's recording (otherwise each is deleted once read back).
     #[arg(long)]
     keep_recordings: bool,
+    /// Pool the latencies of the rounds ending in each stretch of this many seconds, and
+    /// report each stretch's p99 and the largest drift from the first's.
+    #[arg(long, value_name = "S", default_value_t = 600.0, value_parser = positive_seconds)]
+    window_s: f64,
     /// Print one JSON object with the figures as the last line of stdout.
     #[arg(long)]
     json: bool,
@@ -2239,6 +2243,14 @@ fn run_command(args: &RunArgs) -> ! {
     std::process::exit(report.outcome.exit_code());
 }
 
+/// A command-line number of seconds that must be finite and above zero.
+fn positive_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s > 0.0 => Ok(s),
+        _ => Err(format!("{text}: a number of seconds above 0")),
+    }
+}
+
 /// `ratf soak`: exits with the codes its help lists.
 fn soak_command(args: &SoakArgs) -> ! {
     use ratf_host::apps::soak::{self, SoakOptions};
@@ -2252,6 +2264,7 @@ fn soak_command(args: &SoakArgs) -> ! {
         first_seed: args.seed,
         out: args.out.clone(),
         keep_recordings: args.keep_recordings,
+        window_s: args.window_s,
     };
     println!(
         "ratf soak: round 1 after round 1 for {:.0} s (seeds from {}), recordings in {}",
@@ -2315,10 +2328,48 @@ fn soak_command(args: &SoakArgs) -> ! {
             .filter(|r| r.recording_check.is_ok())
             .count()
     );
+    println!(
+        "p99 latency pooled per {:.0} s of wall time:",
+        args.window_s
+    );
+    for window in &report.latency_windows {
+        println!(
+            "  {:6.0}–{:6.0} s: {:3} round(s), {:7} inputs, p50 {} µs, p99 {} µs",
+            window.from_s,
+            window.to_s,
+            window.rounds,
+            window.histogram.count(),
+            window.histogram.quantile_us(0.5),
+            window.p99_us()
+        );
+    }
+    let drift = report.p99_window_drift();
+    match drift {
+        Some(drift) => println!(
+            "largest drift of a stretch's p99 from the first's: {:.1} % (stretches with at \
+             least half the first's inputs)",
+            drift * 100.0
+        ),
+        None => println!("p99 drift: fewer than two full stretches to compare"),
+    }
     for failure in &failures {
         println!("FAILED: {failure}");
     }
     if args.json {
+        let windows: Vec<_> = report
+            .latency_windows
+            .iter()
+            .map(|w| {
+                serde_json::json!({
+                    "from_s": w.from_s,
+                    "to_s": w.to_s,
+                    "rounds": w.rounds,
+                    "inputs": w.histogram.count(),
+                    "p50_us": w.histogram.quantile_us(0.5),
+                    "p99_us": w.p99_us(),
+                })
+            })
+            .collect();
         let rounds: Vec<_> = report
             .rounds
             .iter()
@@ -2355,6 +2406,8 @@ fn soak_command(args: &SoakArgs) -> ! {
                 "rss_growth_kib": report.rss_growth_kib(),
                 "p99_min_us": p99_min,
                 "p99_max_us": p99_max,
+                "latency_windows": windows,
+                "p99_window_drift": drift,
                 "unreported_lost": report.unreported_lost(),
                 "passed": failures.is_empty(),
             })
