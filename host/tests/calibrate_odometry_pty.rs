@@ -23,17 +23,22 @@ fn served_world() -> (Config, WorldTruth) {
     (config, truth)
 }
 
-/// The six pole-to-pole distances a team measures with a tape (here exact, from the truth).
-fn tape_measures(config: &Config, truth: &WorldTruth) -> Vec<String> {
+/// What a team measures with a tape on the day, as `ratf calibrate` options (here exact,
+/// from the truth): the six pole-to-pole distances and each pole's centre from the floor
+/// sheet's edges.
+fn day_measures(config: &Config, truth: &WorldTruth) -> Vec<(&'static str, String)> {
     let field = truth.true_field(config);
     let centres: Vec<_> = field.beacons().iter().map(|b| b.circle.center).collect();
-    let mut tape = Vec::new();
+    let mut measures = Vec::new();
     for a in 0..centres.len() {
         for b in a + 1..centres.len() {
-            tape.push(format!("{a}-{b}={:.4}", centres[a].distance(centres[b])));
+            let distance = centres[a].distance(centres[b]);
+            measures.push(("--tape", format!("{a}-{b}={distance:.4}")));
         }
+        let centre = centres[a];
+        measures.push(("--pole", format!("{a}={:.4},{:.4}", centre.x, centre.y)));
     }
-    tape
+    measures
 }
 
 /// `path` with the robot's ports and server port taken from `devices` (another served
@@ -63,7 +68,7 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
     let (world, port) = serve(&lidar_dir, "3", &["--world", "realistic"]);
     let robot = robot_config(&lidar_dir, &lidar_dir.join("dev/lidar"), port);
     let lidar_calibrated = dir.join("lidar.toml");
-    let tape = tape_measures(&config, &truth);
+    let measures = day_measures(&config, &truth);
     let mut args = vec![
         "calibrate",
         "--robot",
@@ -75,8 +80,8 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
         "--out",
         lidar_dir.to_str().expect("utf-8 path"),
     ];
-    for measure in &tape {
-        args.extend(["--tape", measure]);
+    for (option, measure) in &measures {
+        args.extend([*option, measure.as_str()]);
     }
     run_ok(&args, &dir.join("calibrate.err"), Duration::from_secs(120));
     drop(world);

@@ -1034,7 +1034,7 @@ mod tests {
         let uncalibrated = run_in_world(&world, &world, &options, &mut [], |_| {}).unwrap();
         assert!(uncalibrated.points < 4, "{uncalibrated:?}");
         let mut calibrated = world.clone();
-        calibrate::run_in_sim(&world, true)
+        calibrate::run_in_sim(&world, calibrate::DayMeasures::ALL)
             .unwrap()
             .calibration
             .apply(&mut calibrated);

@@ -79,8 +79,9 @@ enum Command {
     /// Calibrate the lidar (range scale and offset, mount yaw) and the beacons' layout from a
     /// 37 s drive around machine A with nine stops: in the simulator (the drawn world's
     /// truth is printed beside the fit), or with `--robot` on the robot's devices (placed at
-    /// the start pose, the poles' distances measured with a tape and given with `--tape`).
-    /// `--write FILE` saves the calibrated configuration.
+    /// the start pose, the poles' distances measured with a tape and given with `--tape`,
+    /// their centres measured from the floor sheet's edges with `--pole`). `--write FILE`
+    /// saves the calibrated configuration.
     #[command(
         after_help = "The beacons, as [field] beacons_m numbers them (world frame, \
         +x towards the outgoing warehouse, +y towards the incoming one):\n  \
@@ -166,6 +167,10 @@ struct CalibrateArgs {
     /// rests on the odometry and the nominal layout).
     #[arg(long)]
     no_tape: bool,
+    /// Without the poles measured from the floor sheet's edges (the layout's common shift
+    /// and turn then rest on the nominal centres).
+    #[arg(long)]
+    no_sheet: bool,
     /// Write the calibrated configuration to this file: the `--config` file with the
     /// calibrated keys set (`[lidar] range_scale`, `range_offset_m`, `[robot]
     /// lidar_yaw_deg`, `[field] beacons_m`).
@@ -179,6 +184,13 @@ struct CalibrateArgs {
     /// (e.g. `0-1=1.776`), beacons numbered as below; give all six pairs if you can.
     #[arg(long, value_name = "A-B=METRES", value_parser = ratf_host::apps::calibrate::robot::parse_tape, requires = "robot")]
     tape: Vec<ratf_core::calibration::TapeMeasure>,
+    /// A pole's centre measured from the floor sheet's edges, field frame, as `B=X,Y` in
+    /// metres (e.g. `0=0.888,0.538`: pole 0's centre 47 mm right of the sheet's right edge
+    /// at x = 0.841 and 57 mm below its top edge at y = 0.595); give all four if you can.
+    /// Only these place the poles' layout on the field: the lidar sees it move with the
+    /// robot.
+    #[arg(long, value_name = "B=X,Y", value_parser = ratf_host::apps::calibrate::robot::parse_pole_from_sheet, requires = "robot")]
+    pole: Vec<ratf_core::calibration::PoleFromSheet>,
     /// Do not ask before driving (the robot stands at the start pose with room around).
     #[arg(long, requires = "robot")]
     yes: bool,
@@ -352,6 +364,9 @@ struct CalibrationBenchArgs {
     /// Without the tape measures.
     #[arg(long)]
     no_tape: bool,
+    /// Without the poles measured from the floor sheet's edges.
+    #[arg(long)]
+    no_sheet: bool,
 }
 
 #[derive(Debug, Args)]
@@ -1753,7 +1768,13 @@ fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(world) = args.world {
         config.sim.world = world;
     }
-    let run = calibrate::run_in_sim(&config, !args.no_tape)?;
+    let run = calibrate::run_in_sim(
+        &config,
+        calibrate::DayMeasures {
+            tape: !args.no_tape,
+            poles_from_sheet: !args.no_sheet,
+        },
+    )?;
     println!("{}", run.truth);
     let fit = &run.calibration;
     let e = &run.errors;
@@ -1838,6 +1859,12 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
              nominal layout (measure the six pole-to-pole distances for a better fit)"
         );
     }
+    if args.pole.is_empty() {
+        eprintln!(
+            "ratf calibrate: no --pole: where the poles' layout stands on the field rests on \
+             [field] beacons_m (measure each pole's centre from the floor sheet's edges)"
+        );
+    }
     if !args.yes {
         eprint!(
             "The robot must stand at the start pose (facing the incoming warehouse) with nothing \
@@ -1856,6 +1883,7 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
     let shared = quit_on_signals_and_panics("ratf calibrate", 1);
     let options = RobotOptions {
         tape: args.tape.clone(),
+        poles_from_sheet: args.pole.clone(),
         recording: run::timestamped_recording(&args.out, "calibration"),
     };
     let result = robot::run_on_robot(&config, &options, &shared);
@@ -1916,10 +1944,13 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
         config.sim.world,
         seeds.start(),
         seeds.end(),
-        if args.no_tape {
-            "no tape"
-        } else {
-            "with the six pole-to-pole tape measures"
+        match (args.no_tape, args.no_sheet) {
+            (false, false) => {
+                "with the six pole-to-pole tape measures and the poles measured from the sheet"
+            }
+            (false, true) => "with the six pole-to-pole tape measures",
+            (true, false) => "with the poles measured from the sheet",
+            (true, true) => "no tape",
         }
     );
     let started = Instant::now();
@@ -1928,7 +1959,11 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
     for seed in seeds.clone() {
         let mut seeded = config.clone();
         seeded.sim.seed = seed;
-        let run = match calibrate::run_in_sim(&seeded, !args.no_tape) {
+        let measures = calibrate::DayMeasures {
+            tape: !args.no_tape,
+            poles_from_sheet: !args.no_sheet,
+        };
+        let run = match calibrate::run_in_sim(&seeded, measures) {
             Ok(run) => run,
             Err(calibrate::CalibrateError::Fit(error)) => {
                 eprintln!("seed {seed}: refused: {error}");
@@ -1940,25 +1975,27 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
         let e = &run.errors;
         eprintln!(
             "seed {seed}: scale {:+.3} %, offset {:+.1} mm, yaw {:+.3}° (was {:+.2}°), \
-             beacons {:.1} mm (layout {:.1} mm), {} collisions",
+             beacons {:.1} mm (layout {:.1} mm, shift {:.1} mm), {} collisions",
             e.range_scale_pct,
             e.range_offset_mm,
             e.mount_yaw_deg,
             e.uncalibrated_mount_yaw_deg,
             e.beacon_max_mm,
             e.beacon_layout_max_mm,
+            e.beacon_shift_mm,
             run.collisions
         );
         runs.push(run);
     }
     let s = CalibrationSummary::of(&runs);
     println!("{:<28} {:>10} {:>10}", "|error|", "mean", "worst");
-    let rows: [(&str, [f64; 2]); 7] = [
+    let rows: [(&str, [f64; 2]); 8] = [
         ("range scale, %", s.range_scale_pct),
         ("range offset, mm", s.range_offset_mm),
         ("mount yaw, °", s.mount_yaw_deg),
         ("beacon centre, mm", s.beacon_max_mm),
         ("pole-to-pole, mm", s.beacon_layout_max_mm),
+        ("layout's common shift, mm", s.beacon_shift_mm),
         ("mount yaw uncalibrated, °", s.uncalibrated_mount_yaw_deg),
         ("beacon uncalibrated, mm", s.uncalibrated_beacon_max_mm),
     ];
@@ -1979,6 +2016,7 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
                 "world": config.sim.world,
                 "seeds": [seeds.start(), seeds.end()],
                 "tape": !args.no_tape,
+                "sheet": !args.no_sheet,
                 "summary": s,
                 "refused_seeds": refused,
             })

@@ -23,8 +23,11 @@
 //! different distances; the scale and the beacons' spread are pinned together by the
 //! odometry's lengths and the beacons' nominal layout, so the scale is the least certain of
 //! the three ([`Calibration::range_scale_std`] says how certain). The beacons' common
-//! shift and rotation cannot be seen from the robot at all (every pose moves with them): the
-//! fit places them where the nominal layout says, on average.
+//! shift and rotation cannot be seen from the robot at all (every pose moves with them):
+//! the fit places them where the poles measured from the floor sheet's edges say
+//! ([`PoleFromSheet`]), or else where the nominal layout says, on average. That shift
+//! moves every dock with it: a carried part has 20 mm on each side between a slot's
+//! dividers.
 
 mod sightings;
 mod solve;
@@ -32,5 +35,6 @@ mod solve;
 pub use sightings::{MIN_SCANS, SEARCH_RADIUS_M, Sighting, Stop, StopRecorder};
 pub use solve::{
     BEACON_PLACEMENT_SIGMA_M, Calibration, CalibrationError, MAX_RESIDUAL_RMS, MIN_DRIVE_M,
-    MIN_SIGHTINGS_PER_BEACON, MIN_STOPS, Priors, TAPE_SIGMA_M, TapeMeasure, solve,
+    MIN_SIGHTINGS_PER_BEACON, MIN_STOPS, POLE_FROM_SHEET_SIGMA_M, PoleFromSheet, Priors,
+    TAPE_SIGMA_M, TapeMeasure, solve,
 };

@@ -52,6 +52,22 @@ pub struct TapeMeasure {
     pub distance_m: f64,
 }
 
+/// σ of a pole's centre measured from the floor sheet's edges, per axis, m (a tape and a
+/// square over the few centimetres from the printed field's side and end lines to the
+/// pole, plus its radius: an assumption, read to the millimetre like [`TAPE_SIGMA_M`]).
+pub const POLE_FROM_SHEET_SIGMA_M: f64 = 0.002;
+
+/// A pole's centre measured on the day from the printed floor sheet's edges (its side and
+/// end lines give the field frame): the only measure of where the layout stands on the
+/// field, which the robot's own sensors cannot see (every pose moves with the poles).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoleFromSheet {
+    /// The pole (beacon index).
+    pub beacon: usize,
+    /// Its centre, field frame, m.
+    pub position: Vec2,
+}
+
 /// What the robot believes before calibration, and how firmly.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Priors {
@@ -63,6 +79,11 @@ pub struct Priors {
     pub tape: Vec<TapeMeasure>,
     /// σ of a tape measurement, m.
     pub tape_sigma_m: f64,
+    /// Poles' centres measured from the floor sheet's edges on the day, if any: without
+    /// them the layout's common shift and turn rest on the nominal centres.
+    pub poles_from_sheet: Vec<PoleFromSheet>,
+    /// σ of such a measure per axis, m.
+    pub pole_from_sheet_sigma_m: f64,
     /// Their placement tolerance per axis, m.
     pub beacon_sigma_m: f64,
     /// The poles' radius, m.
@@ -99,6 +120,8 @@ impl Priors {
             beacons: field.beacons().iter().map(|b| b.circle.center).collect(),
             tape: Vec::new(),
             tape_sigma_m: TAPE_SIGMA_M,
+            poles_from_sheet: Vec::new(),
+            pole_from_sheet_sigma_m: POLE_FROM_SHEET_SIGMA_M,
             beacon_sigma_m: BEACON_PLACEMENT_SIGMA_M,
             beacon_radius_m: field.beacons()[0].circle.radius_m,
             mount: robot.lidar_mount(),
@@ -222,6 +245,11 @@ pub enum CalibrationError {
         /// The other.
         to: usize,
     },
+    /// A pole measured from the sheet that does not exist.
+    BadPoleFromSheet {
+        /// The beacon index given.
+        beacon: usize,
+    },
     /// The fit did not converge to a finite solution.
     NoSolution,
     /// The fit ended with residuals larger than [`MAX_RESIDUAL_RMS`].
@@ -254,6 +282,10 @@ impl fmt::Display for CalibrationError {
                 f,
                 "a tape measure from beacon {from} to beacon {to}: each end must be a \
                  different beacon, 0 to 3"
+            ),
+            Self::BadPoleFromSheet { beacon } => write!(
+                f,
+                "a pole measured from the sheet's edges is beacon {beacon}: beacons are 0 to 3"
             ),
             Self::NoSolution => write!(f, "the fit did not converge (the sightings disagree)"),
             Self::Inconsistent { residual_rms } => write!(
@@ -398,6 +430,15 @@ fn check_data(stops: &[Stop], priors: &Priors) -> Result<(), CalibrationError> {
             });
         }
     }
+    if let Some(pole) = priors
+        .poles_from_sheet
+        .iter()
+        .find(|p| p.beacon >= priors.beacons.len())
+    {
+        return Err(CalibrationError::BadPoleFromSheet {
+            beacon: pole.beacon,
+        });
+    }
     let span_m = stops
         .iter()
         .flat_map(|a| {
@@ -489,6 +530,11 @@ impl Problem<'_> {
         for tape in &p.tape {
             let fitted = beacon(tape.from).distance(beacon(tape.to));
             r.push((fitted - tape.distance_m) / p.tape_sigma_m);
+        }
+        for pole in &p.poles_from_sheet {
+            let b = beacon(pole.beacon);
+            r.push((b.x - pole.position.x) / p.pole_from_sheet_sigma_m);
+            r.push((b.y - pole.position.y) / p.pole_from_sheet_sigma_m);
         }
         r.push((scale - 1.0) / p.range_scale_sigma);
         r.push(offset / p.range_offset_sigma_m);
@@ -684,6 +730,51 @@ mod tests {
                 assert!(error < 3.0 * fit.range_scale_std, "seed {seed}: {fit:?}");
             }
         }
+    }
+
+    #[test]
+    fn poles_measured_from_the_sheet_place_the_layout_on_the_field() {
+        let nominal = priors();
+        // The robot believes the whole layout 8 mm off where it stands: no sighting nor
+        // odometry can tell (every pose moves with it).
+        let mut priors = nominal.clone();
+        for b in &mut priors.beacons {
+            *b = *b - Vec2::new(0.008, -0.008);
+        }
+        let (mut worst_without, mut worst_with) = (0.0f64, 0.0f64);
+        for seed in 1..=10 {
+            let truth = synthetic(seed, &nominal, &drive(), 0.001);
+            priors.tape = tape(&truth.beacons);
+            priors.poles_from_sheet.clear();
+            let without = solve(&truth.stops, &priors).unwrap();
+            priors.poles_from_sheet = truth
+                .beacons
+                .iter()
+                .enumerate()
+                .map(|(beacon, &position)| PoleFromSheet { beacon, position })
+                .collect();
+            let with = solve(&truth.stops, &priors).unwrap();
+            let worst = |fit: &Calibration| {
+                fit.beacons
+                    .iter()
+                    .zip(&truth.beacons)
+                    .map(|(f, t)| f.distance(*t))
+                    .fold(0.0, f64::max)
+            };
+            worst_without = worst_without.max(worst(&without));
+            worst_with = worst_with.max(worst(&with));
+        }
+        assert!(worst_without > 0.008, "{worst_without}");
+        assert!(worst_with < 0.003, "{worst_with}");
+        priors.poles_from_sheet = vec![PoleFromSheet {
+            beacon: 4,
+            position: Vec2::ZERO,
+        }];
+        let truth = synthetic(1, &nominal, &drive(), 0.001);
+        assert_eq!(
+            solve(&truth.stops, &priors),
+            Err(CalibrationError::BadPoleFromSheet { beacon: 4 })
+        );
     }
 
     #[test]

@@ -16,7 +16,9 @@ pub mod robot;
 
 use crate::apps::scripts::calibration_drive;
 use drive::drive_and_collect;
-use ratf_core::calibration::{self, Calibration, CalibrationError, Priors, TapeMeasure};
+use ratf_core::calibration::{
+    self, Calibration, CalibrationError, PoleFromSheet, Priors, TapeMeasure,
+};
 use ratf_core::config::{Config, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Vec2, wrap_angle};
@@ -30,6 +32,24 @@ use ratf_sim::world::Scenario;
 /// two poles (the four sides and both diagonals of their quadrilateral, which make the
 /// layout rigid).
 const TAPED_SIDES: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// What a team measures on the day besides the drive, in the simulator (each drawn from the
+/// world's truth with its σ, `Priors::tape_sigma_m` and `Priors::pole_from_sheet_sigma_m`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DayMeasures {
+    /// The distance between every two poles (the four sides and both diagonals).
+    pub tape: bool,
+    /// Every pole's centre from the floor sheet's edges ([`PoleFromSheet`]).
+    pub poles_from_sheet: bool,
+}
+
+impl DayMeasures {
+    /// Both: what `ratf calibrate` asks a team for.
+    pub const ALL: Self = Self {
+        tape: true,
+        poles_from_sheet: true,
+    };
+}
 
 /// Why the simulated calibration failed.
 #[derive(Debug, thiserror::Error)]
@@ -58,6 +78,9 @@ pub struct CalibrationErrors {
     pub beacon_max_mm: f64,
     /// Largest error of a fitted pole-to-pole distance (the layout, whatever the frame), mm.
     pub beacon_layout_max_mm: f64,
+    /// The fitted layout's common shift from the true one (the mean of the centres'
+    /// errors), mm: what moves every dock with it.
+    pub beacon_shift_mm: f64,
     /// The same before calibration: the believed mount yaw minus the true one, degrees.
     pub uncalibrated_mount_yaw_deg: f64,
     /// Largest distance of a believed beacon centre from the true one, mm.
@@ -86,9 +109,11 @@ pub struct SimCalibration {
 }
 
 /// Drive the calibration drive in the world of `config` (its `[sim] seed` and `world`),
-/// fit, and compare with the truth; with `tape`, the team also measured the distance
-/// between every two poles (to the truth, with the tape's σ).
-pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, CalibrateError> {
+/// fit, and compare with the truth; the team also took the `measures`.
+pub fn run_in_sim(
+    config: &Config,
+    measures: DayMeasures,
+) -> Result<SimCalibration, CalibrateError> {
     let (script, windows) = calibration_drive();
     let scenario = Scenario {
         start_pose: script.start,
@@ -116,7 +141,19 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
         .map(|b| b.circle.center)
         .collect();
     let mut priors = Priors::from_config(config, &field);
-    if tape {
+    if measures.poles_from_sheet {
+        let mut rng = SimRng::new(config.sim.seed).fork("poles from the sheet");
+        let sigma = priors.pole_from_sheet_sigma_m;
+        priors.poles_from_sheet = true_beacons
+            .iter()
+            .enumerate()
+            .map(|(beacon, &centre)| PoleFromSheet {
+                beacon,
+                position: centre + Vec2::new(rng.normal(sigma), rng.normal(sigma)),
+            })
+            .collect();
+    }
+    if measures.tape {
         let mut rng = SimRng::new(config.sim.seed).fork("tape");
         priors.tape = TAPED_SIDES
             .iter()
@@ -137,6 +174,7 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
         mount_yaw_deg: wrap_angle(fit.mount_yaw_rad - true_yaw).to_degrees(),
         beacon_max_mm: max_distance(&fit.beacons, &true_beacons) * 1e3,
         beacon_layout_max_mm: layout_error(&fit.beacons, &true_beacons) * 1e3,
+        beacon_shift_mm: common_shift(&fit.beacons, &true_beacons).norm() * 1e3,
         uncalibrated_mount_yaw_deg: -truth.lidar_yaw_error_deg,
         uncalibrated_beacon_max_mm: max_distance(&believed_beacons, &true_beacons) * 1e3,
     };
@@ -153,7 +191,7 @@ pub fn run_in_sim(config: &Config, tape: bool) -> Result<SimCalibration, Calibra
 }
 
 /// What the robot believes in the world of `config` (its `[sim] seed`): with `calibrate`,
-/// the configuration after the calibration drive (with the tape measures); when the fit is
+/// the configuration after the calibration drive (with all the day's measures); when the fit is
 /// refused, the configuration as written, as on the day for a team with no time to drive
 /// again, and the refusal beside it.
 pub fn beliefs(
@@ -164,7 +202,7 @@ pub fn beliefs(
     if !calibrate {
         return Ok((beliefs, None));
     }
-    match run_in_sim(config, true) {
+    match run_in_sim(config, DayMeasures::ALL) {
         Ok(run) => {
             run.calibration.apply(&mut beliefs);
             Ok((beliefs, None))
@@ -179,6 +217,15 @@ fn max_distance(a: &[Vec2], b: &[Vec2]) -> f64 {
         .zip(b)
         .map(|(p, q)| p.distance(*q))
         .fold(0.0, f64::max)
+}
+
+/// The mean of `fitted − truth` over the poles.
+fn common_shift(fitted: &[Vec2], truth: &[Vec2]) -> Vec2 {
+    let sum = fitted
+        .iter()
+        .zip(truth)
+        .fold(Vec2::ZERO, |sum, (f, t)| sum + (*f - *t));
+    sum * (1.0 / fitted.len().max(1) as f64)
 }
 
 fn layout_error(fitted: &[Vec2], truth: &[Vec2]) -> f64 {
@@ -208,6 +255,8 @@ pub struct CalibrationSummary {
     pub beacon_max_mm: [f64; 2],
     /// Mean and worst pole-to-pole distance error, mm.
     pub beacon_layout_max_mm: [f64; 2],
+    /// Mean and worst common shift of the layout, mm.
+    pub beacon_shift_mm: [f64; 2],
     /// Mean and worst |mount yaw error| before calibration, degrees.
     pub uncalibrated_mount_yaw_deg: [f64; 2],
     /// Mean and worst largest beacon error before calibration, mm.
@@ -232,6 +281,7 @@ impl CalibrationSummary {
             mount_yaw_deg: stat(&|e| e.mount_yaw_deg),
             beacon_max_mm: stat(&|e| e.beacon_max_mm),
             beacon_layout_max_mm: stat(&|e| e.beacon_layout_max_mm),
+            beacon_shift_mm: stat(&|e| e.beacon_shift_mm),
             uncalibrated_mount_yaw_deg: stat(&|e| e.uncalibrated_mount_yaw_deg),
             uncalibrated_beacon_max_mm: stat(&|e| e.uncalibrated_beacon_max_mm),
         }
@@ -247,7 +297,7 @@ mod tests {
         let mut config = Config::default();
         config.sim.world = WorldProfile::Realistic;
         config.sim.seed = 3;
-        let run = run_in_sim(&config, true).unwrap();
+        let run = run_in_sim(&config, DayMeasures::ALL).unwrap();
         assert_eq!(run.collisions, 0);
         assert_eq!(run.stops, 9);
         assert!(
@@ -265,7 +315,7 @@ mod tests {
         let mut config = Config::default();
         config.sim.world = WorldProfile::Harsh;
         config.sim.seed = 31;
-        let run = run_in_sim(&config, true).unwrap();
+        let run = run_in_sim(&config, DayMeasures::ALL).unwrap();
         assert!(run.truth.lateral_factor < 0.9, "{}", run.truth);
         assert_eq!(run.collisions, 0);
     }

@@ -4,9 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use ratf_core::calibration::{self, Calibration, CalibrationError, Priors, Stop, TapeMeasure};
+use ratf_core::calibration::{
+    self, Calibration, CalibrationError, PoleFromSheet, Priors, Stop, TapeMeasure,
+};
 use ratf_core::config::Config;
-use ratf_core::field::geometry::Pose2;
+use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::runtime::Core;
 
 use super::drive::drive_and_collect;
@@ -35,12 +37,35 @@ pub fn parse_tape(text: &str) -> Result<TapeMeasure, String> {
     })
 }
 
+/// `B=X,Y`: beacon B's centre measured from the floor sheet's edges, field frame, m.
+pub fn parse_pole_from_sheet(text: &str) -> Result<PoleFromSheet, String> {
+    let bad = || format!("{text:?}: expected B=X,Y with a beacon 0 to 3, e.g. 0=0.888,0.538");
+    let (beacon, position) = text.split_once('=').ok_or_else(bad)?;
+    let (x, y) = position.split_once(',').ok_or_else(bad)?;
+    let beacon: usize = beacon.trim().parse().map_err(|_| bad())?;
+    let x: f64 = x.trim().parse().map_err(|_| bad())?;
+    let y: f64 = y.trim().parse().map_err(|_| bad())?;
+    // The field is 1.7 × 1.2 m about its centre and the poles stand beside it.
+    if beacon > 3 || !(x.abs() <= 1.5 && y.abs() <= 1.5) {
+        return Err(format!(
+            "{text:?}: a beacon from 0 to 3, and a centre within 1.5 m of the field's centre"
+        ));
+    }
+    Ok(PoleFromSheet {
+        beacon,
+        position: Vec2::new(x, y),
+    })
+}
+
 /// How a calibration on the robot is made.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobotOptions {
     /// Pole-to-pole distances measured with a tape (may be empty: the range scale then
     /// rests on the odometry and the nominal layout).
     pub tape: Vec<TapeMeasure>,
+    /// Poles' centres measured from the floor sheet's edges (may be empty: the layout's
+    /// place on the field then rests on the nominal centres).
+    pub poles_from_sheet: Vec<PoleFromSheet>,
     /// Where the recording goes.
     pub recording: PathBuf,
 }
@@ -160,6 +185,7 @@ pub fn run_on_robot(
     let field = config.field.field();
     let mut priors = Priors::from_config(config, &field);
     priors.tape = options.tape.clone();
+    priors.poles_from_sheet = options.poles_from_sheet.clone();
     let calibration = calibration::solve(&stops, &priors)?;
     Ok(RobotCalibration {
         calibration,
@@ -186,6 +212,28 @@ mod tests {
             "0-1", "0:1=1.7", "0-4=1.7", "2-2=1.7", "0-1=17", "0-1=nan", "a-1=1",
         ] {
             let error = parse_tape(bad).unwrap_err();
+            assert!(error.contains(bad), "{bad}: {error}");
+        }
+    }
+
+    #[test]
+    fn a_pole_from_the_sheet_is_read_from_b_equals_x_comma_y_and_nonsense_is_named() {
+        assert_eq!(
+            parse_pole_from_sheet("2=0.891,-0.535"),
+            Ok(PoleFromSheet {
+                beacon: 2,
+                position: Vec2::new(0.891, -0.535)
+            })
+        );
+        for bad in [
+            "2=0.891",
+            "2:0.8,0.5",
+            "4=0.8,0.5",
+            "1=8.8,0.5",
+            "1=nan,0.5",
+            "x=1,1",
+        ] {
+            let error = parse_pole_from_sheet(bad).unwrap_err();
             assert!(error.contains(bad), "{bad}: {error}");
         }
     }
