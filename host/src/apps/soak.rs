@@ -221,12 +221,14 @@ impl SoakReport {
     pub fn p99_window_drift(&self) -> Option<f64> {
         let (first, rest) = self.latency_windows.split_first()?;
         let reference = f64::from(first.p99_us());
+        if reference <= 0.0 {
+            return None;
+        }
         let full = first.histogram.count() / 2;
         rest.iter()
             .filter(|w| w.histogram.count() >= full.max(1))
             .map(|w| (f64::from(w.p99_us()) / reference - 1.0).abs())
             .reduce(f64::max)
-            .filter(|_| reference > 0.0)
     }
 
     /// Telemetry batches lost without the link reporting them, over all rounds.

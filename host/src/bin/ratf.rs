@@ -1768,13 +1768,7 @@ fn calibrate_command(args: &CalibrateArgs) -> anyhow::Result<()> {
     if let Some(world) = args.world {
         config.sim.world = world;
     }
-    let run = calibrate::run_in_sim(
-        &config,
-        calibrate::DayMeasures {
-            tape: !args.no_tape,
-            poles_from_sheet: !args.no_sheet,
-        },
-    )?;
+    let run = calibrate::run_in_sim(&config, day_measures(args.no_tape, args.no_sheet))?;
     println!("{}", run.truth);
     let fit = &run.calibration;
     let e = &run.errors;
@@ -1953,16 +1947,13 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
             (true, true) => "no tape",
         }
     );
+    let measures = day_measures(args.no_tape, args.no_sheet);
     let started = Instant::now();
     let mut runs = Vec::new();
     let mut refused = Vec::new();
     for seed in seeds.clone() {
         let mut seeded = config.clone();
         seeded.sim.seed = seed;
-        let measures = calibrate::DayMeasures {
-            tape: !args.no_tape,
-            poles_from_sheet: !args.no_sheet,
-        };
         let run = match calibrate::run_in_sim(&seeded, measures) {
             Ok(run) => run,
             Err(calibrate::CalibrateError::Fit(error)) => {
@@ -2279,6 +2270,15 @@ fn run_command(args: &RunArgs) -> ! {
         );
     }
     std::process::exit(report.outcome.exit_code());
+}
+
+/// The day's measures a simulated calibration takes, from the `--no-tape` and `--no-sheet`
+/// flags.
+fn day_measures(no_tape: bool, no_sheet: bool) -> ratf_host::apps::calibrate::DayMeasures {
+    ratf_host::apps::calibrate::DayMeasures {
+        tape: !no_tape,
+        poles_from_sheet: !no_sheet,
+    }
 }
 
 /// A command-line number of seconds that must be finite and above zero.
