@@ -340,14 +340,15 @@ impl FaultInjector {
                 });
                 if let Some(part) = in_transit {
                     let held = world.shop().footprint(part, world.body().pose).pose;
-                    // Away from the magnet's face (the part's local −x points at the robot).
+                    // Away from the magnet's face (the part's local +x, its plate, faces
+                    // the robot).
                     let away = rng.uniform_in(0.020, 0.050);
                     let rest = held.compose(Pose2::new(
                         -away,
                         rng.uniform_in(-0.02, 0.02),
                         rng.uniform_in(-0.17, 0.17),
                     ));
-                    world.shop_mut().put_on_floor(part, rest);
+                    world.put_part_on_floor(part, rest);
                     self.injected[i] = true;
                     self.ended[i] = true;
                 }
@@ -372,7 +373,7 @@ impl FaultInjector {
                         rng.uniform_in(-0.010, 0.010),
                         rng.uniform_in(-0.14, 0.14),
                     ));
-                    world.shop_mut().put_on_floor(part, knocked);
+                    world.put_part_on_floor(part, knocked);
                     self.injected[i] = true;
                 }
             }

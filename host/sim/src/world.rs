@@ -454,9 +454,15 @@ impl World {
         ));
     }
 
-    /// Fault injection: the floor's parts, to knock one or let the carried one slip.
-    pub fn shop_mut(&mut self) -> &mut Shop {
-        &mut self.shop
+    /// Fault injection: part `part` lands on the floor at `pose` (knocked out of its slot, or
+    /// slipped off the magnet). In a world with contact it comes to rest out of the walls,
+    /// dividers, poles and other parts it would overlap there: a part that slips off as the
+    /// robot backs out of a slot lands against the slot's back wall, not inside it.
+    pub fn put_part_on_floor(&mut self, part: usize, pose: Pose2) {
+        self.shop.put_on_floor(part, pose);
+        if self.contact {
+            self.settle_part(part);
+        }
     }
 
     /// Fault injection: replace what stands around the field (what the lidar can see).
@@ -1023,6 +1029,40 @@ mod tests {
         assert!(pose.y < -0.05, "slid along the block: {pose:?}");
     }
 
+    /// The bug this guards: a part that slipped off the magnet as the robot backed out of a
+    /// slot was put 2–5 cm further on, into the slot's back wall, and stayed there, so the
+    /// search reached for a plate a centimetre deeper than any slot holds one and pressed the
+    /// body onto the dividers' tips.
+    #[test]
+    fn a_part_that_lands_in_a_wall_rests_against_it() {
+        let start = Pose2::new(-0.8, 0.0, 0.0);
+        let config = Config::default().in_world(WorldProfile::Ideal);
+        let mut world = World::new(
+            &config,
+            &Scenario {
+                start_pose: start,
+                incoming: [Some(PartColor::Blue), None, None, None],
+                ..Scenario::new(&config)
+            },
+        );
+        world.contact = true;
+        let field = Field::competition();
+        let slot = field.incoming_slot(2).expect("slot 3");
+        // 8 mm deeper than the slot's seat, its plate facing out: into the back wall.
+        let deep = slot.box_center + Vec2::new(0.0, 0.008);
+        let plate_out = -std::f64::consts::FRAC_PI_2;
+        world.put_part_on_floor(0, Pose2::new(deep.x, deep.y, plate_out));
+        let part = world.shop().footprint(0, world.body().pose);
+        let wall = field
+            .warehouse(ratf_core::field::WarehouseKind::Incoming)
+            .wall
+            .rect;
+        let wall = OrientedRect::from_rect(wall);
+        assert!(!part.penetrates(&wall, 1e-6), "{part:?}");
+        // Against it: moved back out by the 8 mm, not further.
+        assert!((part.pose.y - slot.box_center.y).abs() < 1e-6, "{part:?}");
+    }
+
     #[test]
     fn a_free_part_is_pushed_along_in_front_of_the_robot() {
         let start = Pose2::new(-0.8, 0.0, 0.0);
@@ -1038,8 +1078,8 @@ mod tests {
         // The part on the floor 5 cm ahead of the front face, its plate facing the robot,
         // on the line of machine A's upper input slot (y = 0, between two dividers).
         let part_at = Pose2::new(-0.8 + 0.15 + 0.05 + 0.03, 0.0, std::f64::consts::PI);
-        world.shop_mut().put_on_floor(0, part_at);
         world.contact = true;
+        world.put_part_on_floor(0, part_at);
         drive(
             &mut world,
             ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0),

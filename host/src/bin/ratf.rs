@@ -345,7 +345,8 @@ struct FaultsBenchArgs {
     /// Only these faults (names as printed, comma-separated; `mixed` for the mix).
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
-    /// Also print, for each faulted run short of full score, what happened in order.
+    /// Also print, for each faulted run short of full score or with a collision, what happened
+    /// in order.
     #[arg(long)]
     verbose: bool,
     /// Calibrate each seed's world first (the calibration drive with tape measures); the
@@ -1682,7 +1683,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             r.round, r.seed, r.points, r.outgoing, r.time_s, r.collisions, r.timeouts
         );
         let full = r.points == ratf_host::apps::round::full_score(r.round) && r.outgoing == 4;
-        if args.verbose && !full {
+        if args.verbose && (!full || r.collisions > 0) {
             for line in story {
                 eprintln!("    {line}");
             }
