@@ -37,9 +37,10 @@ use crate::control::route::SLOT_EXIT_M;
 use crate::field::geometry::Pose2;
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
+use crate::planning::shortcuts::FreeSpace;
 use search::{Search, Step, Trail};
 
-pub use search::MAX_LOOKS;
+pub use search::{LOOK_CLEARANCE_M, MAX_LOOKS, search_floor};
 
 /// One pick-and-place: take the part standing at `pick`, put it at `drop` (slot waypoints).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -398,13 +399,16 @@ pub struct Mission<N, A> {
     trail: Trail,
     /// The search while regripping.
     search: Option<Search>,
+    /// Where the search's looks may start ([`search_floor`]).
+    floor: FreeSpace,
     /// Since when the core holds the robot ([`Mission::hold`]), µs.
     held_since_us: Option<u64>,
 }
 
 impl<N: Navigator, A: ActionSource> Mission<N, A> {
-    /// A mission about to ask `actions` for its first action.
-    pub fn new(config: MissionConfig, navigator: N, actions: A) -> Self {
+    /// A mission about to ask `actions` for its first action, whose search for a part that
+    /// fell off starts its looks clear of `floor` ([`search_floor`]).
+    pub fn new(config: MissionConfig, navigator: N, actions: A, floor: FreeSpace) -> Self {
         Self {
             config,
             navigator,
@@ -413,6 +417,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             solenoid_on: false,
             trail: Trail::default(),
             search: None,
+            floor,
             held_since_us: None,
         }
     }
@@ -760,7 +765,13 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     && Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s
                 {
                     events.push(MissionEvent::PartSlipped);
-                    self.search = Some(Search::new(&self.trail, pose, open_us, &self.config));
+                    self.search = Some(Search::new(
+                        &self.trail,
+                        pose,
+                        open_us,
+                        &self.config,
+                        &self.floor,
+                    ));
                     self.state = State::Regripping { action };
                     return stop;
                 }
@@ -821,6 +832,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::planning::shortcuts::Footprint;
 
     /// A navigator that arrives after a fixed number of ticks, docking only if told the part
     /// is there.
@@ -1087,6 +1099,8 @@ mod tests {
         (m, events)
     }
 
+    /// A mission doing `todo` on an empty floor (the looks' clearance of the field's walls is
+    /// tested in `search`).
     fn mission(todo: Vec<Action>) -> Mission<FakeNavigator, Script> {
         Mission::new(
             MissionConfig::default(),
@@ -1095,6 +1109,14 @@ mod tests {
                 todo,
                 outcomes: Vec::new(),
             },
+            FreeSpace::empty(
+                Footprint {
+                    length_m: 0.30,
+                    width_m: 0.30,
+                    carrying: false,
+                },
+                LOOK_CLEARANCE_M,
+            ),
         )
     }
 

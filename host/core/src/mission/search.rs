@@ -39,17 +39,42 @@
 //! before with its heading (`regrip_backoff_m` behind, `regrip_sweep_m` to a side), and the
 //! creep covers where the part was carried, so the search drives only where the robot and
 //! its part have just been, give or take those few centimetres; it never plans across the
-//! floor.
+//! floor. Those centimetres matter where the routes pass close to the field's solids: under
+//! a machine block the robot's back runs 2 cm from the dividers. So a look whose start would
+//! put the bare body within [`LOOK_CLEARANCE_M`] of a wall, divider or pole starts further on
+//! along its line ([`FreeSpace::first_free_ahead_m`]), and creeps to where it would have;
+//! with no free start short of its anchor it is not taken. The creep itself is not cut
+//! short of the walls: a part that fell back into its slot lies where only a creep to the
+//! dividers' tips reaches it (cutting it lost parts on the tuning seeds and saved no
+//! collisions).
 
 use std::collections::VecDeque;
 
 use super::MissionConfig;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
-use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
+use crate::field::{Field, PART_DEPTH_M, PICK_STANDOFF_M};
 use crate::kinematics::BodyTwist;
+use crate::planning::shortcuts::{Footprint, FreeSpace};
 
 /// Most looks one search may take (the upper bound of `regrip_looks`).
 pub const MAX_LOOKS: usize = 8;
+
+/// The least gap between the body and a wall, divider or pole where a look starts, m.
+/// 0.003: under the pick pose's 5 mm off the divider tips ([`PICK_STANDOFF_M`]), so a look
+/// backed off from a pick pose starts where it was meant to.
+pub const LOOK_CLEARANCE_M: f64 = 0.003;
+
+/// Where a search's looks may start: clear of `field`'s walls, dividers and poles, for a bare
+/// body of `length_m` × `width_m` (the magnet is off while looking) grown by
+/// [`LOOK_CLEARANCE_M`].
+pub fn search_floor(field: &Field, length_m: f64, width_m: f64) -> FreeSpace {
+    let body = Footprint {
+        length_m,
+        width_m,
+        carrying: false,
+    };
+    FreeSpace::new(field, &[], body, LOOK_CLEARANCE_M)
+}
 
 /// From the robot's centre to the centre of a part the magnet holds, m (the part stands
 /// against the magnet's face, which is where it is at a slot's pick pose).
@@ -172,12 +197,35 @@ pub(super) enum Step {
     Lost,
 }
 
+/// One look: a line-up, then a creep straight on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Look {
+    /// Where the creep starts; it runs along this heading.
+    pub(super) start: Pose2,
+    /// How far the creep may go, m: `regrip_reach_m`, less what the start was moved on.
+    pub(super) reach_m: f64,
+}
+
+impl Look {
+    /// The look meant to start at `wanted` and creep `reach_m`, with its start clear of
+    /// `floor`: the first free pose along its line, at most `backoff_m` on (where the
+    /// wanted start's anchor is); it creeps to where it would have. `None` when no start up
+    /// to there is free.
+    fn clear_of(floor: &FreeSpace, wanted: Pose2, backoff_m: f64, reach_m: f64) -> Option<Self> {
+        let moved_m = floor.first_free_ahead_m(wanted, backoff_m)?;
+        Some(Self {
+            start: wanted.compose(Pose2::new(moved_m, 0.0, 0.0)),
+            reach_m: reach_m - moved_m,
+        })
+    }
+}
+
 /// The search: see the module documentation.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct Search {
-    /// The looks' start poses (the creep runs along each one's heading), at most
-    /// [`MAX_LOOKS`].
-    looks: Vec<Pose2>,
+    /// The looks, at most [`MAX_LOOKS`], each starting where the body is clear of the field's
+    /// solids.
+    looks: Vec<Look>,
     /// The current look.
     look: usize,
     phase: Phase,
@@ -187,15 +235,24 @@ pub(super) struct Search {
 
 impl Search {
     /// A search that begins braking at `since_us`, the robot now at `pose`, for a part last
-    /// known held along `trail`.
-    pub(super) fn new(trail: &Trail, pose: Pose2, since_us: u64, config: &MissionConfig) -> Self {
+    /// known held along `trail`, its looks starting clear of `floor` ([`search_floor`]).
+    pub(super) fn new(
+        trail: &Trail,
+        pose: Pose2,
+        since_us: u64,
+        config: &MissionConfig,
+        floor: &FreeSpace,
+    ) -> Self {
         let mut looks = Vec::with_capacity(MAX_LOOKS);
         let wanted = (config.regrip_looks as usize).clamp(1, MAX_LOOKS);
         let backoff = |anchor: Pose2, across_m: f64| {
             anchor.compose(Pose2::new(-config.regrip_backoff_m, across_m, 0.0))
         };
-        let mut add = |look: Pose2| {
-            if looks.len() < wanted {
+        let mut add = |start: Pose2| {
+            let backoff_m = config.regrip_backoff_m;
+            if looks.len() < wanted
+                && let Some(look) = Look::clear_of(floor, start, backoff_m, config.regrip_reach_m)
+            {
                 looks.push(look);
             }
         };
@@ -250,9 +307,9 @@ impl Search {
         matches!(self.phase, Phase::Braking | Phase::Holding)
     }
 
-    /// The looks' start poses, in the order they are taken.
+    /// The looks, in the order they are taken.
     #[cfg(test)]
-    pub(super) fn looks(&self) -> &[Pose2] {
+    pub(super) fn looks(&self) -> &[Look] {
         &self.looks
     }
 
@@ -303,13 +360,18 @@ impl Search {
         }
         match self.phase {
             Phase::Braking => {
-                if elapsed_s >= config.regrip_brake_s {
+                if elapsed_s < config.regrip_brake_s {
+                    stop
+                } else if self.looks.is_empty() {
+                    // Every look would start against a wall: nowhere safe to look.
+                    Step::Lost
+                } else {
                     self.line_up(now_us, pose);
+                    stop
                 }
-                stop
             }
             Phase::LiningUp { limit_us } => {
-                let target = self.looks[self.look];
+                let target = self.looks[self.look].start;
                 let error = target.position() - pose.position();
                 let yaw_error = wrap_angle(target.yaw_rad - pose.yaw_rad);
                 let lined_up =
@@ -330,7 +392,7 @@ impl Search {
                 Step::Searching(body_twist(velocity, omega, pose.yaw_rad))
             }
             Phase::Creeping { best_m, best_us } => {
-                let start = self.looks[self.look];
+                let Look { start, reach_m } = self.looks[self.look];
                 let along_unit = Vec2::from_angle(start.yaw_rad);
                 let across_unit = Vec2::new(-along_unit.y, along_unit.x);
                 let offset = pose.position() - start.position();
@@ -346,7 +408,7 @@ impl Search {
                 };
                 self.phase = Phase::Creeping { best_m, best_us };
                 let stalled = now_us.saturating_sub(best_us) as f64 * 1e-6 > STALL_S;
-                if along >= config.regrip_reach_m || elapsed_s > limit_s || stalled {
+                if along >= reach_m || elapsed_s > limit_s || stalled {
                     return self.next_look(now_us, pose);
                 }
                 let hold = (-GAIN_PER_S * across).clamp(-speed, speed);
@@ -454,7 +516,7 @@ impl Search {
     /// Begin lining up for the current look from `pose`, with a time limit of three times
     /// what the line-up takes at its top speeds, and half a second.
     fn line_up(&mut self, now_us: u64, pose: Pose2) {
-        let target = self.looks[self.look];
+        let target = self.looks[self.look].start;
         let travel_s = target.position().distance(pose.position()) / LINE_UP_SPEED_M_S
             + wrap_angle(target.yaw_rad - pose.yaw_rad).abs() / LINE_UP_TURN_RAD_S;
         let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
@@ -505,14 +567,21 @@ fn body_twist(world: Vec2, omega_rad_s: f64, yaw_rad: f64) -> BodyTwist {
 mod tests {
     use super::*;
 
-    /// A trail of `n` poses 1 cm apart along +x, heading +x, one per 20 ms tick.
+    /// The competition floor for a 30 × 30 cm body.
+    fn floor() -> FreeSpace {
+        search_floor(&Field::competition(), 0.30, 0.30)
+    }
+
+    /// Where [`straight_trail`] begins, heading up the field's left side: the trail, its
+    /// looks and their creeps keep clear of everything there.
+    const OPEN: Pose2 = Pose2::new(-0.65, -0.25, std::f64::consts::FRAC_PI_2);
+
+    /// A trail of `n` poses 1 cm apart straight on from [`OPEN`], one per 20 ms tick.
     fn straight_trail(n: u32) -> Trail {
         let mut trail = Trail::default();
         for k in 0..n {
-            trail.push(
-                u64::from(k) * 20_000,
-                Pose2::new(f64::from(k) * 0.01, 0.0, 0.0),
-            );
+            let pose = OPEN.compose(Pose2::new(f64::from(k) * 0.01, 0.0, 0.0));
+            trail.push(u64::from(k) * 20_000, pose);
         }
         trail
     }
@@ -522,12 +591,17 @@ mod tests {
         let config = MissionConfig::default();
         let trail = straight_trail(20);
         // Stopped turned to the right of the last held heading: the right side comes first.
-        let stopped = Pose2::new(0.2, 0.0, -0.1);
-        let search = Search::new(&trail, stopped, 400_000, &config);
-        let looks = search.looks();
+        let stopped = OPEN.compose(Pose2::new(0.2, 0.0, -0.1));
+        let search = Search::new(&trail, stopped, 400_000, &config, &floor());
+        // In the trail's frame.
+        let looks: Vec<Pose2> = search
+            .looks()
+            .iter()
+            .map(|l| OPEN.relative(l.start))
+            .collect();
         assert_eq!(looks.len(), config.regrip_looks as usize);
         let near = |a: Pose2, x: f64, y: f64| {
-            (a.x - x).abs() < 1e-9 && (a.y - y).abs() < 1e-9 && a.yaw_rad == 0.0
+            (a.x - x).abs() < 1e-9 && (a.y - y).abs() < 1e-9 && a.yaw_rad.abs() < 1e-12
         };
         let back = config.regrip_backoff_m;
         let sweep = config.regrip_sweep_m;
@@ -539,8 +613,58 @@ mod tests {
         for (later, earlier) in [(looks[0], looks[3]), (looks[3], looks[4])] {
             let gap = later.x - earlier.x;
             assert!(gap > sweep - 1e-9 && gap < sweep + 0.01 + 1e-9, "{looks:?}");
-            assert!(earlier.y == 0.0 && earlier.yaw_rad == 0.0, "{looks:?}");
+            assert!(near(earlier, earlier.x, 0.0), "{looks:?}");
         }
+    }
+
+    #[test]
+    fn in_open_floor_every_look_creeps_its_whole_reach() {
+        let config = MissionConfig::default();
+        let search = Search::new(&straight_trail(20), OPEN, 0, &config, &floor());
+        assert_eq!(search.looks().len(), config.regrip_looks as usize);
+        for look in search.looks() {
+            assert_eq!(look.reach_m, config.regrip_reach_m, "{look:?}");
+        }
+    }
+
+    /// The bug this guards: a part that fell as the robot drove beneath a machine block (its
+    /// back 2 cm from the dividers) was looked for from 3 cm behind where it was held, and
+    /// the line-up pressed the robot's back onto a divider (machine B's, in the fault bench).
+    #[test]
+    fn a_look_that_would_start_in_a_divider_starts_further_on() {
+        let config = MissionConfig::default();
+        // Beneath machine A, heading down the field (−y), the back 2 cm below its lowest
+        // divider (y = −0.235).
+        let held = Pose2::new(-0.35, -0.235 - 0.02 - 0.15, -std::f64::consts::FRAC_PI_2);
+        let mut trail = Trail::default();
+        trail.push(0, held);
+        let search = Search::new(&trail, held, 20_000, &config, &floor());
+        let first = search.looks()[0];
+        assert!(floor().pose_is_free(first.start), "{first:?}");
+        // Started 1 cm behind the held pose rather than 3 (the 2 cm gap less the
+        // clearance, within a step), and creeps its whole reach from where it would have.
+        let behind_m = first.start.position().distance(held.position());
+        assert!(
+            (behind_m - (0.02 - LOOK_CLEARANCE_M)).abs() <= 0.001,
+            "{first:?}"
+        );
+        let from_wanted_m = config.regrip_backoff_m - behind_m;
+        assert!((first.reach_m + from_wanted_m - config.regrip_reach_m).abs() < 1e-9);
+    }
+
+    #[test]
+    fn with_every_look_against_a_wall_the_part_is_lost_after_braking() {
+        let config = MissionConfig::default();
+        // Inside the incoming warehouse's back wall: no look starts clear.
+        let wall = Pose2::new(-0.395, 0.50, std::f64::consts::FRAC_PI_2);
+        let mut trail = Trail::default();
+        trail.push(0, wall);
+        let mut search = Search::new(&trail, wall, 0, &config, &floor());
+        assert!(search.looks().is_empty());
+        let braking = search.tick(100_000, wall, false, &config);
+        assert_eq!(braking, Step::Searching(BodyTwist::default()));
+        let after_us = (config.regrip_brake_s * 1e6) as u64 + 1;
+        assert_eq!(search.tick(after_us, wall, false, &config), Step::Lost);
     }
 
     #[test]
@@ -556,7 +680,7 @@ mod tests {
             regrip_sweep_m: 0.0,
             ..MissionConfig::default()
         };
-        let search = Search::new(&straight_trail(20), Pose2::default(), 0, &config);
+        let search = Search::new(&straight_trail(20), OPEN, 0, &config, &floor());
         assert_eq!(search.looks().len(), 1);
     }
 }

@@ -18,6 +18,10 @@ use crate::field::{Field, OrientedRect, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOF
 /// thinnest obstacle (the 20 mm dividers), so no obstacle fits between two samples.
 pub const SAMPLE_STEP_M: f64 = 0.005;
 
+/// Resolution of [`FreeSpace::first_free_ahead_m`], m. 0.001: the distances are a few
+/// centimetres, and the pose estimate is good to a few millimetres.
+pub const AHEAD_STEP_M: f64 = 0.001;
+
 /// The robot's outline for clearance checks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
@@ -96,6 +100,17 @@ impl FreeSpace {
         }
     }
 
+    /// A floor with nothing on it, for tests of logic that must not meet the field's walls.
+    #[cfg(test)]
+    pub(crate) fn empty(footprint: Footprint, margin_m: f64) -> Self {
+        Self {
+            rects: Vec::new(),
+            circles: Vec::new(),
+            footprint,
+            margin_m,
+        }
+    }
+
     /// Distance from `p` to the nearest obstacle, m.
     pub fn clearance_m(&self, p: Vec2) -> f64 {
         let rects = self.rects.iter().map(|r| r.distance_to_point(p));
@@ -122,6 +137,17 @@ impl FreeSpace {
             self.rects.iter().all(|&r| !body.overlaps_rect(r))
                 && self.circles.iter().all(|&c| !circle_hits(body, c))
         })
+    }
+
+    /// The least distance straight ahead of `from`, along its heading and holding it, at
+    /// which the footprint (grown by the margin) is free, m: a multiple of [`AHEAD_STEP_M`]
+    /// up to `up_to_m` (0 when `from` itself is free), or `None` when no pose up to there is.
+    /// For a start backed off from where the robot stood, moved on until it is clear.
+    pub fn first_free_ahead_m(&self, from: Pose2, up_to_m: f64) -> Option<f64> {
+        let steps = (up_to_m.max(0.0) / AHEAD_STEP_M).ceil() as usize;
+        (0..=steps)
+            .map(|k| (k as f64 * AHEAD_STEP_M).min(up_to_m.max(0.0)))
+            .find(|&d| self.pose_is_free(from.compose(Pose2::new(d, 0.0, 0.0))))
     }
 
     /// True when the footprint can move from `a` to `b` in a straight line holding each one
@@ -273,6 +299,29 @@ mod tests {
             let yaws = [yaw_a, yaw_a + f64::from(quarter_turns) * FRAC_PI_2];
             let footprint = Footprint { carrying, ..BARE };
             check_no_crossing(&points, &yaws, footprint)?;
+        }
+
+        /// The first free pose ahead is free, and the step before it is not (unless it is
+        /// the start); with none, no step up to the end is free.
+        #[test]
+        fn the_first_free_pose_ahead_is_the_first(
+            x in -0.8f64..0.8, y in -0.55f64..0.55, yaw in -3.2f64..3.2, up_to_m in 0.0f64..0.1,
+        ) {
+            let free = space(BARE, 0.003);
+            let from = Pose2::new(x, y, yaw);
+            let at = |d: f64| from.compose(Pose2::new(d, 0.0, 0.0));
+            match free.first_free_ahead_m(from, up_to_m) {
+                Some(d) => {
+                    prop_assert!((0.0..=up_to_m).contains(&d));
+                    prop_assert!(free.pose_is_free(at(d)));
+                    if d > 0.0 {
+                        prop_assert!(!free.pose_is_free(at(d - AHEAD_STEP_M)));
+                    }
+                }
+                None => {
+                    prop_assert!(!free.pose_is_free(from) && !free.pose_is_free(at(up_to_m)));
+                }
+            }
         }
     }
 }

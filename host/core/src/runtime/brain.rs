@@ -12,7 +12,7 @@ use crate::control::route_time::RouteTimes;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
-use crate::mission::{Activity, Mission, MissionConfig, MissionEvent};
+use crate::mission::{Activity, Mission, MissionConfig, MissionEvent, search_floor};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
     Timing, TravelTimes,
@@ -265,7 +265,13 @@ impl Brain {
         };
         let actions = TaskActions::new(self.model.clone(), planner, state);
         let navigator = RouteNavigator::new(&self.config, policy);
-        self.mission = Some(Mission::new(self.mission_config, navigator, actions));
+        let robot = &self.config.robot;
+        let floor = search_floor(
+            &Field::competition(),
+            robot.footprint_length_m,
+            robot.footprint_width_m,
+        );
+        self.mission = Some(Mission::new(self.mission_config, navigator, actions, floor));
     }
 }
 
