@@ -1029,23 +1029,29 @@ mod tests {
         assert!(pose.y < -0.05, "slid along the block: {pose:?}");
     }
 
+    /// A world of one blue part (in incoming slot 1), the robot at (−0.8, 0) facing +x, with
+    /// contact on.
+    fn one_part_world_with_contact() -> World {
+        let config = Config::default().in_world(WorldProfile::Ideal);
+        let mut world = World::new(
+            &config,
+            &Scenario {
+                start_pose: Pose2::new(-0.8, 0.0, 0.0),
+                incoming: [Some(PartColor::Blue), None, None, None],
+                ..Scenario::new(&config)
+            },
+        );
+        world.contact = true;
+        world
+    }
+
     /// The bug this guards: a part that slipped off the magnet as the robot backed out of a
     /// slot was put 2–5 cm further on, into the slot's back wall, and stayed there, so the
     /// search reached for a plate a centimetre deeper than any slot holds one and pressed the
     /// body onto the dividers' tips.
     #[test]
     fn a_part_that_lands_in_a_wall_rests_against_it() {
-        let start = Pose2::new(-0.8, 0.0, 0.0);
-        let config = Config::default().in_world(WorldProfile::Ideal);
-        let mut world = World::new(
-            &config,
-            &Scenario {
-                start_pose: start,
-                incoming: [Some(PartColor::Blue), None, None, None],
-                ..Scenario::new(&config)
-            },
-        );
-        world.contact = true;
+        let mut world = one_part_world_with_contact();
         let field = Field::competition();
         let slot = field.incoming_slot(2).expect("slot 3");
         // 8 mm deeper than the slot's seat, its plate facing out: into the back wall.
@@ -1065,20 +1071,10 @@ mod tests {
 
     #[test]
     fn a_free_part_is_pushed_along_in_front_of_the_robot() {
-        let start = Pose2::new(-0.8, 0.0, 0.0);
-        let config = Config::default().in_world(WorldProfile::Ideal);
-        let mut world = World::new(
-            &config,
-            &Scenario {
-                start_pose: start,
-                incoming: [Some(PartColor::Blue), None, None, None],
-                ..Scenario::new(&config)
-            },
-        );
+        let mut world = one_part_world_with_contact();
         // The part on the floor 5 cm ahead of the front face, its plate facing the robot,
         // on the line of machine A's upper input slot (y = 0, between two dividers).
         let part_at = Pose2::new(-0.8 + 0.15 + 0.05 + 0.03, 0.0, std::f64::consts::PI);
-        world.contact = true;
         world.put_part_on_floor(0, part_at);
         drive(
             &mut world,
