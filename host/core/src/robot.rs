@@ -205,7 +205,12 @@ impl Robot {
                 self.counts.wheel_batches += 1;
                 self.switch_pressed = telemetry.switch_pressed;
             }
-            Input::MegaReset => self.counts.mega_resets += 1,
+            Input::MegaReset => {
+                self.counts.mega_resets += 1;
+                // A Mega that restarted has not read its switch yet: as at power-up, the
+                // switch counts as open until its first batch says otherwise.
+                self.switch_pressed = false;
+            }
             Input::Scan(_) => self.counts.scans += 1,
             Input::Imu(sample) => {
                 self.counts.imu_samples += 1;
@@ -270,7 +275,8 @@ impl Robot {
         self.last_odometry.as_ref()
     }
 
-    /// The box switch as last reported.
+    /// The box switch as last reported since the Mega last (re)started; open before its first
+    /// report.
     pub fn switch_pressed(&self) -> bool {
         self.switch_pressed
     }
@@ -293,13 +299,17 @@ mod tests {
     use crate::runtime::Timestamp;
 
     fn telemetry(totals: [i32; 4]) -> Stamped {
+        with_switch(totals, false)
+    }
+
+    fn with_switch(totals: [i32; 4], switch_pressed: bool) -> Stamped {
         Stamped::new(
             Timestamp::ZERO,
             Input::Wheels(WheelTelemetry {
                 totals,
                 deltas_ticks: None,
                 period_us: 20_000,
-                switch_pressed: false,
+                switch_pressed,
                 quadrature_errors: None,
                 faults: None,
                 settings_ack: None,
@@ -349,5 +359,19 @@ mod tests {
             odometry(&robot)
         );
         assert_eq!(robot.input_counts().mega_resets, 1);
+    }
+
+    #[test]
+    fn a_restarted_mega_reads_its_switch_anew() {
+        // Seed 67, round 1, Mega reset: the switch closed before the reset read closed for
+        // two ticks after it, so the search for the dropped part looked from where the robot
+        // had coasted to, and its body met the part beside its line.
+        let mut robot = Robot::new(&Config::default(), Pose2::default());
+        robot.handle(&with_switch([0; 4], true));
+        assert!(robot.switch_pressed());
+        robot.handle(&Stamped::new(Timestamp::ZERO, Input::MegaReset));
+        assert!(!robot.switch_pressed());
+        robot.handle(&with_switch([0; 4], true));
+        assert!(robot.switch_pressed());
     }
 }

@@ -16,10 +16,12 @@
 //! the same line moved `regrip_sweep_m` to one side and to the other (the part lands up to
 //! 2 cm off the centre line, and a robot turning away sweeps it sideways with a front
 //! corner: first the side the robot was turning to), then earlier poses of the trail, each
-//! whose part centre is `regrip_sweep_m` from the previous anchor's (after a Mega reset the
-//! switch is read again only once the Mega is back, 0.5 s later: the part fell off where the
-//! robot was when the Mega went silent, before it coasted to a stop). At most
-//! `regrip_looks` looks.
+//! whose part centre is `regrip_sweep_m` from the previous anchor's (a switch read late
+//! ends the trail after the part left: a Mega that resets lets its part go at once, but the
+//! core counts it silent only 60 ms later, and the switch read closed until then). At most
+//! `regrip_looks` looks. (Once the Mega is back, its switch counts as open until it reports
+//! it: the closed reading from before the reset had extended the trail to where the robot
+//! coasted to, and the first looks from there met the part with the body.)
 //!
 //! When the switch closes the part is found, but the lever closes on a plate up to a few
 //! centimetres beside the magnet's centre, and the magnet keeps that offset: a part held
