@@ -197,7 +197,8 @@ impl RefereeClient {
     pub fn request(&mut self, request: Request) -> Result<Reply, RequestError> {
         while !self.tracker.ready(self.now_us()) {
             for datagram in self.link.receive() {
-                self.tracker.on_datagram(&datagram);
+                let now_us = self.now_us();
+                self.tracker.on_datagram(now_us, &datagram);
             }
             self.link.wait_readable(Duration::from_millis(5));
         }
@@ -205,7 +206,8 @@ impl RefereeClient {
         self.link.send(request)?;
         loop {
             for datagram in self.link.receive() {
-                if let Some(reply) = self.tracker.on_datagram(&datagram) {
+                let now_us = self.now_us();
+                if let Some(reply) = self.tracker.on_datagram(now_us, &datagram) {
                     return Ok(reply);
                 }
             }

@@ -103,6 +103,10 @@ pub enum Step {
 struct Outstanding {
     request: Request,
     tries: u32,
+    /// When the request was first sent, µs.
+    first_sent_us: u64,
+    /// When it was last sent, µs.
+    last_sent_us: u64,
     deadline_us: u64,
     last_bad: Option<ReplyError>,
 }
@@ -124,8 +128,10 @@ struct Draining {
 /// unanswered (it was retried, or it timed out), the late answers to those sends are
 /// discarded: the tracker refuses the next request ([`RequestTracker::ready`] is false)
 /// until as many datagrams have arrived as there were unanswered sends, or until the last
-/// try's deadline (after a timeout: one more first timeout) has passed. A reply later still
-/// than that would be taken for the next request's; the timeouts bound how late that is.
+/// try's deadline has passed (after a timeout: one more first timeout; after an answer to a
+/// retried request: the last send plus the answer's delay from the first send, and a first
+/// timeout, if that is later). A reply later still than that would be taken for the next
+/// request's; the timeouts and the server's own delay bound how late that is.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RequestTracker {
     policy: RetryPolicy,
@@ -182,6 +188,8 @@ impl RequestTracker {
         self.outstanding = Some(Outstanding {
             request,
             tries: 1,
+            first_sent_us: now_us,
+            last_sent_us: now_us,
             deadline_us: now_us.saturating_add(self.policy.timeout_us(1)),
             last_bad: None,
         });
@@ -193,10 +201,10 @@ impl RequestTracker {
         self.outstanding = None;
     }
 
-    /// A datagram from the server arrived. Returns the valid reply that ends the
+    /// A datagram from the server arrived at `now_us`. Returns the valid reply that ends the
     /// outstanding request; `None` for an invalid reply (remembered), a late answer to an
     /// earlier request (discarded), or when idle.
-    pub fn on_datagram(&mut self, datagram: &[u8]) -> Option<Reply> {
+    pub fn on_datagram(&mut self, now_us: u64, datagram: &[u8]) -> Option<Reply> {
         let Some(outstanding) = self.outstanding.as_mut() else {
             if let Some(draining) = self.draining.as_mut() {
                 draining.strays = draining.strays.saturating_sub(1);
@@ -208,11 +216,18 @@ impl RequestTracker {
         };
         match parse_reply(outstanding.request, datagram) {
             Ok(reply) => {
-                // Every earlier send of this request may still be answered.
+                // Every other send of this request may still be answered. Taken as the answer
+                // to the first send (the latest the server may be), the last send's answer
+                // is as late, give or take a first timeout.
                 let strays = outstanding.tries - 1;
+                let round_trip_us = now_us.saturating_sub(outstanding.first_sent_us);
+                let last_answer_us = outstanding
+                    .last_sent_us
+                    .saturating_add(round_trip_us)
+                    .saturating_add(self.policy.first_timeout_us);
                 self.draining = (strays > 0).then_some(Draining {
                     strays,
-                    until_us: outstanding.deadline_us,
+                    until_us: outstanding.deadline_us.max(last_answer_us),
                 });
                 self.outstanding = None;
                 Some(reply)
@@ -236,6 +251,7 @@ impl RequestTracker {
         }
         if o.tries < self.policy.max_tries {
             o.tries += 1;
+            o.last_sent_us = now_us;
             o.deadline_us = now_us.saturating_add(self.policy.timeout_us(o.tries));
             return Step::Send(o.request);
         }
@@ -287,7 +303,7 @@ mod tests {
                 deadline_us: 100_000
             }
         );
-        let reply = t.on_datagram(b"RGGB\n");
+        let reply = t.on_datagram(60_000, b"RGGB\n");
         assert_eq!(
             reply,
             Some(Reply::Slots([
@@ -299,7 +315,7 @@ mod tests {
         );
         assert_eq!(t.outstanding(), None);
         assert_eq!(
-            t.on_datagram(b"RGGB"),
+            t.on_datagram(70_000, b"RGGB"),
             None,
             "a duplicate is ignored when idle"
         );
@@ -339,14 +355,17 @@ mod tests {
         let mut t = RequestTracker::new(POLICY);
         t.start(Request::TimeLeft, 0).unwrap();
         assert_eq!(
-            t.on_datagram(b"BGGR"),
+            t.on_datagram(0, b"BGGR"),
             None,
             "late answer to an earlier IWP"
         );
-        assert_eq!(t.on_datagram(b"T42"), Some(Reply::TimeLeft { seconds: 42 }));
+        assert_eq!(
+            t.on_datagram(0, b"T42"),
+            Some(Reply::TimeLeft { seconds: 42 })
+        );
 
         t.start(Request::TimeLeft, 0).unwrap();
-        assert_eq!(t.on_datagram(b"hello"), None);
+        assert_eq!(t.on_datagram(0, b"hello"), None);
         for now in [100_000, 300_000] {
             assert_eq!(t.step(now), Step::Send(Request::TimeLeft));
         }
@@ -386,7 +405,10 @@ mod tests {
         t.start(Request::IncomingWarehouse, 0).unwrap();
         assert_eq!(t.step(400_000), Step::Send(Request::IncomingWarehouse));
         let incoming = b"RGGB";
-        assert!(matches!(t.on_datagram(incoming), Some(Reply::Slots(_))));
+        assert!(matches!(
+            t.on_datagram(650_000, incoming),
+            Some(Reply::Slots(_))
+        ));
         // The robot wants OWP on its next tick: not before the retry's answer is in.
         assert!(!t.ready(660_000));
         assert!(matches!(
@@ -394,12 +416,37 @@ mod tests {
             Err(ClientError::Draining { .. })
         ));
         // The retry's answer arrives and is discarded.
-        assert_eq!(t.on_datagram(incoming), None);
+        assert_eq!(t.on_datagram(1_050_000, incoming), None);
         assert!(t.ready(1_060_000));
         t.start(Request::OutgoingWarehouse, 1_060_000).unwrap();
         let outgoing = b"XXXB";
         assert_eq!(
-            t.on_datagram(outgoing),
+            t.on_datagram(1_100_000, outgoing),
+            Some(Reply::Slots([None, None, None, Some(Blue)]))
+        );
+    }
+
+    /// Round 2, seed 58, the server 1 s late (`ratf bench faults`): `IWP` sent at 0 and again
+    /// at 400 ms is answered at 1000 ms; the retry's answer comes at 1400 ms, after the
+    /// retry's own deadline (1200 ms). It was taken for `OWP`'s, and the robot planned from a
+    /// warehouse with the incoming parts in its outgoing slots.
+    #[test]
+    fn an_answer_later_than_the_retry_deadline_is_awaited_as_late_as_the_first() {
+        let policy = RetryPolicy {
+            first_timeout_us: 400_000,
+            max_tries: 3,
+        };
+        let mut t = RequestTracker::new(policy);
+        t.start(Request::IncomingWarehouse, 0).unwrap();
+        assert_eq!(t.step(400_000), Step::Send(Request::IncomingWarehouse));
+        let incoming = b"XBGB";
+        assert!(t.on_datagram(1_000_000, incoming).is_some());
+        assert!(!t.ready(1_210_000), "the retry's answer is still to come");
+        assert_eq!(t.on_datagram(1_400_000, incoming), None);
+        assert!(t.ready(1_400_000));
+        t.start(Request::OutgoingWarehouse, 1_400_000).unwrap();
+        assert_eq!(
+            t.on_datagram(2_400_000, b"XXXB"),
             Some(Reply::Slots([None, None, None, Some(Blue)]))
         );
     }
@@ -417,12 +464,19 @@ mod tests {
         };
         assert!(matches!(result, Err(ClientError::Timeout { tries: 3, .. })));
         assert!(!t.ready(now + POLICY.first_timeout_us - 1));
-        assert_eq!(t.on_datagram(b"BXXX"), None, "a late answer to MAP");
+        assert_eq!(
+            t.on_datagram(now + 1_000, b"BXXX"),
+            None,
+            "a late answer to MAP"
+        );
         assert!(t.ready(now + POLICY.first_timeout_us));
         // A request answered at the first try leaves nothing to wait for.
         t.start(Request::MachineB, now + POLICY.first_timeout_us)
             .unwrap();
-        assert!(t.on_datagram(b"XXXX").is_some());
+        assert!(
+            t.on_datagram(now + POLICY.first_timeout_us, b"XXXX")
+                .is_some()
+        );
         assert!(t.ready(now + POLICY.first_timeout_us));
     }
 
@@ -456,7 +510,7 @@ mod tests {
                 match e {
                     Event::Wait(us) => now += us,
                     Event::Datagram(bytes) => {
-                        if let Some(reply) = t.on_datagram(&bytes) {
+                        if let Some(reply) = t.on_datagram(now, &bytes) {
                             prop_assert_eq!(parse_reply(Request::IncomingWarehouse, &bytes), Ok(reply));
                             prop_assert!(sends <= max_tries);
                             return Ok(());

@@ -222,7 +222,7 @@ impl Brain {
     /// A datagram from the server at `now_us`.
     pub fn on_datagram(&mut self, now_us: u64, datagram: &[u8], events: &mut Vec<Event>) {
         let asked = self.tracker.outstanding();
-        let Some(reply) = self.tracker.on_datagram(datagram) else {
+        let Some(reply) = self.tracker.on_datagram(now_us, datagram) else {
             return;
         };
         match self.mission.as_mut() {
