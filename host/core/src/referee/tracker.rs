@@ -391,12 +391,9 @@ mod tests {
         assert!(t.start(Request::MachineB, 0).is_ok());
     }
 
-    /// The reproducer from the review: with a 400 ms timeout, the server answers every
-    /// datagram 650 ms after it was sent. `IWP` is retried at 400 ms; the answer to its first
-    /// send (650 ms) ends it; the answer to the retry (1050 ms) must not end the next request,
-    /// `OWP`, whose strings look the same.
-    #[test]
-    fn a_late_answer_to_an_earlier_request_is_never_taken_for_the_next_one() {
+    /// A tracker with a 400 ms first timeout whose `IWP`, sent at 0, was sent again at
+    /// 400 ms.
+    fn incoming_sent_twice() -> RequestTracker {
         let policy = RetryPolicy {
             first_timeout_us: 400_000,
             max_tries: 3,
@@ -404,6 +401,16 @@ mod tests {
         let mut t = RequestTracker::new(policy);
         t.start(Request::IncomingWarehouse, 0).unwrap();
         assert_eq!(t.step(400_000), Step::Send(Request::IncomingWarehouse));
+        t
+    }
+
+    /// The reproducer from the review: with a 400 ms timeout, the server answers every
+    /// datagram 650 ms after it was sent. `IWP` is retried at 400 ms; the answer to its first
+    /// send (650 ms) ends it; the answer to the retry (1050 ms) must not end the next request,
+    /// `OWP`, whose strings look the same.
+    #[test]
+    fn a_late_answer_to_an_earlier_request_is_never_taken_for_the_next_one() {
+        let mut t = incoming_sent_twice();
         let incoming = b"RGGB";
         assert!(matches!(
             t.on_datagram(650_000, incoming),
@@ -432,13 +439,7 @@ mod tests {
     /// warehouse with the incoming parts in its outgoing slots.
     #[test]
     fn an_answer_later_than_the_retry_deadline_is_awaited_as_late_as_the_first() {
-        let policy = RetryPolicy {
-            first_timeout_us: 400_000,
-            max_tries: 3,
-        };
-        let mut t = RequestTracker::new(policy);
-        t.start(Request::IncomingWarehouse, 0).unwrap();
-        assert_eq!(t.step(400_000), Step::Send(Request::IncomingWarehouse));
+        let mut t = incoming_sent_twice();
         let incoming = b"XBGB";
         assert!(t.on_datagram(1_000_000, incoming).is_some());
         assert!(!t.ready(1_210_000), "the retry's answer is still to come");
