@@ -138,6 +138,11 @@ impl Trail {
         self.poses.clear();
     }
 
+    /// The last pose at which the part was held, if any.
+    pub(super) fn last(&self) -> Option<Pose2> {
+        self.poses.back().map(|&(_, pose)| pose)
+    }
+
     /// Every pose `held_us` later: the mission stood held that long (its clock stopped).
     pub(super) fn later(&mut self, held_us: u64) {
         for (t, _) in &mut self.poses {
@@ -259,7 +264,7 @@ impl Search {
                 looks.push(look);
             }
         };
-        let anchor = trail.poses.back().map_or(pose, |&(_, p)| p);
+        let anchor = trail.last().unwrap_or(pose);
         add(backoff(anchor, 0.0));
         let sweep = config.regrip_sweep_m;
         if sweep > 0.0 {

@@ -266,12 +266,19 @@ impl Brain {
         let actions = TaskActions::new(self.model.clone(), planner, state);
         let navigator = RouteNavigator::new(&self.config, policy);
         let robot = &self.config.robot;
-        let floor = search_floor(
-            &Field::competition(),
-            robot.footprint_length_m,
-            robot.footprint_width_m,
-        );
-        self.mission = Some(Mission::new(self.mission_config, navigator, actions, floor));
+        let field = Field::competition();
+        let floor = search_floor(&field, robot.footprint_length_m, robot.footprint_width_m);
+        let slot_poses = field
+            .slots()
+            .map(|slot| (slot.waypoint, slot.pick_pose))
+            .collect();
+        self.mission = Some(Mission::new(
+            self.mission_config,
+            navigator,
+            actions,
+            floor,
+            slot_poses,
+        ));
     }
 }
 
