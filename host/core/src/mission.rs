@@ -38,10 +38,10 @@
 
 mod search;
 
-use crate::control::route::SLOT_EXIT_M;
 use std::collections::BTreeMap;
 
-use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::control::route::SLOT_EXIT_M;
+use crate::field::geometry::{Pose2, wrap_angle};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::planning::shortcuts::FreeSpace;
@@ -563,10 +563,10 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         let Some(&pick) = self.slot_poses.get(&slot) else {
             return false;
         };
-        let offset = pose.position() - pick.position();
-        let heading = Vec2::from_angle(pick.yaw_rad);
-        (-LET_GO_SHORT_OF_DROP_M..=LET_GO_ACROSS_DROP_M).contains(&offset.dot(heading))
-            && offset.cross(heading).abs() <= LET_GO_ACROSS_DROP_M
+        // Along the slot's line (positive beyond the pick pose) and across it.
+        let offset = pick.inverse_transform_point(pose.position());
+        (-LET_GO_SHORT_OF_DROP_M..=LET_GO_ACROSS_DROP_M).contains(&offset.x)
+            && offset.y.abs() <= LET_GO_ACROSS_DROP_M
             && wrap_angle(pose.yaw_rad - pick.yaw_rad).abs() <= LET_GO_AT_DROP_RAD
     }
 
