@@ -56,19 +56,27 @@ impl StopCollector {
     }
 
     /// The stops as the fit takes them: each stop's sightings in the beliefs of `config`
-    /// on `field`; a stop the drive never rested at is left out.
+    /// on `field`; a stop the drive never rested at is left out. The poles are looked for
+    /// around the localiser's pose, the odometry's, and the last stop's look moved on by
+    /// the odometry since (one leg of roller slip, where the odometry alone carries every
+    /// leg's; see [`StopRecorder`]).
     pub fn finish(self, config: &Config, field: &Field) -> Vec<Stop> {
-        self.stops
-            .into_iter()
-            .filter_map(|stop| {
-                let (odometry, estimate) = stop.poses?;
-                let mut recorder = StopRecorder::new(config, field, estimate);
-                for scan in &stop.scans {
-                    recorder.add_scan(scan);
-                }
-                Some(recorder.finish(odometry, estimate))
-            })
-            .collect()
+        let mut stops: Vec<Stop> = Vec::new();
+        for stop in self.stops {
+            let Some((odometry, estimate)) = stop.poses else {
+                continue;
+            };
+            let mut looks = vec![estimate, odometry];
+            if let Some(last) = stops.last() {
+                looks.push(last.estimate.compose(last.odometry.relative(odometry)));
+            }
+            let mut recorder = StopRecorder::new(config, field);
+            for scan in &stop.scans {
+                recorder.add_scan(scan);
+            }
+            stops.push(recorder.finish(odometry, &looks));
+        }
+        stops
     }
 }
 
