@@ -3,6 +3,7 @@
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -594,8 +595,32 @@ struct ConfigArgs {
     robot: bool,
 }
 
-fn main() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+fn main() -> ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("error: {}", report(&error));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `error` and its causes on one line, each said once. Our error types say their cause in
+/// their own message (`"calibration: {0}"`), which anyhow's own report would print again
+/// under "Caused by", with a backtrace when `RUST_BACKTRACE` is set: a team reading a
+/// refused calibration needs the sentence, not the stack.
+fn report(error: &anyhow::Error) -> String {
+    let mut message = error.to_string();
+    for cause in error.chain().skip(1) {
+        let text = cause.to_string();
+        if !message.contains(&text) {
+            message = format!("{message}: {text}");
+        }
+    }
+    message
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Frames => {
             use ratf_protocol::messages::{Command as MegaCommand, Wheel};
@@ -2513,6 +2538,21 @@ mod tests {
     /// `ratf ARGS` as the command line parses them.
     fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
         Cli::try_parse_from(std::iter::once("ratf").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn an_error_that_says_its_cause_is_reported_with_each_cause_once() {
+        use ratf_core::calibration::CalibrationError;
+        use ratf_host::apps::calibrate::CalibrateError;
+        let fit = CalibrationError::Inconsistent { residual_rms: 6.5 };
+        let error = anyhow::Error::from(CalibrateError::Fit(fit.clone()))
+            .context("calibrating in seed 36's world");
+        let text = report(&error);
+        assert_eq!(text.matches(&fit.to_string()).count(), 1, "{text}");
+        assert!(
+            text.starts_with("calibrating in seed 36's world: calibration: the sightings"),
+            "{text}"
+        );
     }
 
     #[test]
