@@ -15,6 +15,7 @@
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
 //! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
+//! | to drop, headed in, no closer for 1 s 3–15 cm short of it | — | jammed (`mission::jam`): back off 3 cm, let the part go and grip it again centred (regripping), at most twice an action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); else it fell off the magnet: look for it (regripping) |
 //! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
@@ -36,6 +37,7 @@
 //! arrival instead of searching for the part (it searched the slot's dividers and gave the
 //! placed part up). So does a part that slips off there: it can only stand in the slot.
 
+mod jam;
 mod search;
 
 use std::collections::BTreeMap;
@@ -45,6 +47,7 @@ use crate::field::geometry::{Pose2, wrap_angle};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::planning::shortcuts::FreeSpace;
+use jam::JamWatch;
 use search::{Search, Step, Trail};
 
 pub use search::{LOOK_CLEARANCE_M, MAX_LOOKS, search_floor};
@@ -246,6 +249,9 @@ pub enum MissionEvent {
     PartSlipped,
     /// The part that fell off is held again; the robot carries on to the drop.
     Regripped,
+    /// The carried part stopped getting closer to its drop ([`jam`]): the robot backs off,
+    /// lets it go and grips it again centred on its plate.
+    Jammed,
     /// An action failed for good.
     Skipped {
         /// The action.
@@ -356,8 +362,8 @@ struct BackOutProfile {
 }
 
 impl BackOutProfile {
-    fn new(config: &MissionConfig) -> Self {
-        let distance = config.back_out_m.max(0.0);
+    fn new(config: &MissionConfig, distance_m: f64) -> Self {
+        let distance = distance_m.max(0.0);
         let accel = config.back_out_accel_m_s2.max(1e-3);
         let peak = config
             .back_out_speed_m_s
@@ -397,6 +403,19 @@ enum AfterBackOut {
     Retry(Action, u32),
     /// Check the switch opened, then report the placement.
     ConfirmRelease(Action),
+    /// The part jammed short of its drop: let it go and grip it again centred on its plate
+    /// ([`jam`]), then carry it.
+    Reseat(Action),
+}
+
+impl AfterBackOut {
+    /// How far to reverse before it, m.
+    fn distance_m(self, config: &MissionConfig) -> f64 {
+        match self {
+            Self::Reseat(_) => jam::JAMMED_BACK_OUT_M.min(config.back_out_m),
+            _ => config.back_out_m,
+        }
+    }
 }
 
 /// One tick's output.
@@ -428,6 +447,10 @@ pub struct Mission<N, A> {
     slot_poses: BTreeMap<WaypointId, Pose2>,
     /// Since when the core holds the robot ([`Mission::hold`]), µs.
     held_since_us: Option<u64>,
+    /// Whether the carried part has stopped getting closer to its drop.
+    jam: JamWatch,
+    /// Times this action's part was let go and gripped again after a jam.
+    reseats: u32,
 }
 
 impl<N: Navigator, A: ActionSource> Mission<N, A> {
@@ -452,6 +475,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             floor,
             slot_poses,
             held_since_us: None,
+            jam: JamWatch::default(),
+            reseats: 0,
         }
     }
 
@@ -549,10 +574,32 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             State::Regripping { .. } | State::Idle | State::Finished => {}
         }
         self.trail.later(held_us);
+        self.jam.later(held_us);
         if let Some(search) = self.search.as_mut() {
             search.later(held_us);
         }
         self.navigator.halted();
+    }
+
+    /// Whether the part carried to `drop` is jammed short of it ([`jam`]), the robot at
+    /// `pose`, and may be gripped again: ours only (the original never watched its part),
+    /// at most [`jam::MAX_RESEATS`] times an action. Watched only on the straight way in,
+    /// headed within [`LET_GO_AT_DROP_RAD`] of the drop: a robot turning on the spot near its
+    /// drop comes no closer either (machine A's output to machine B's input, round 3 at
+    /// seeds 11 and 53).
+    fn jammed(&mut self, now_us: u64, pose: Pose2, drop: WaypointId) -> bool {
+        let Some(&drop_pose) = self.slot_poses.get(&drop) else {
+            return false;
+        };
+        if wrap_angle(pose.yaw_rad - drop_pose.yaw_rad).abs() > LET_GO_AT_DROP_RAD {
+            self.jam.reset();
+            return false;
+        }
+        self.config.watch_carried_part
+            && self.reseats < jam::MAX_RESEATS
+            && self
+                .jam
+                .jammed(now_us, drop_pose.position().distance(pose.position()))
     }
 
     /// Whether a robot at `pose` stands at `slot`'s pick pose, so that a part it lets go lies
@@ -583,6 +630,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         events: &mut Vec<MissionEvent>,
     ) {
         events.push(MissionEvent::ActionStarted { action, attempt });
+        self.reseats = 0;
         self.navigator.go_to(now_us, pose, action.pick, true);
         self.state = State::ToPick {
             action,
@@ -627,6 +675,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     /// Carry `action`'s part to its drop slot from `pose`.
     fn carry(&mut self, action: Action, now_us: u64, pose: Pose2) {
         self.navigator.go_to(now_us, pose, action.drop, false);
+        self.jam.reset();
         self.trail.clear();
         self.state = State::ToDrop {
             action,
@@ -770,20 +819,33 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             } => {
                 let travelled = from.position().distance(pose.position());
                 let elapsed_s = Self::elapsed_s(now_us, since_us);
-                let profile = BackOutProfile::new(&self.config);
+                let distance_m = then.distance_m(&self.config);
+                let profile = BackOutProfile::new(&self.config, distance_m);
                 // The reverse follows its time profile; it ends once the profile has run
                 // out and the estimate (which lags) shows the distance, or, blocked, after
                 // three times the profile's duration.
                 let limit_s = 3.0 * profile.duration_s();
-                let done = travelled >= self.config.back_out_m && elapsed_s >= profile.duration_s();
+                let done = travelled >= distance_m && elapsed_s >= profile.duration_s();
                 if !done && elapsed_s < limit_s {
                     let speed = profile
                         .speed_m_s(elapsed_s)
-                        .max(BACK_OUT_CREEP_M_S * f64::from(travelled < self.config.back_out_m));
+                        .max(BACK_OUT_CREEP_M_S * f64::from(travelled < distance_m));
                     return BodyTwist::new(-speed, 0.0, 0.0);
                 }
                 match then {
                     AfterBackOut::Carry(action) => self.carry(action, now_us, pose),
+                    AfterBackOut::Reseat(action) => {
+                        self.trail.clear();
+                        self.trail.push(now_us, pose);
+                        match Search::reseat(&self.trail, pose, now_us, &self.config, &self.floor) {
+                            Some(search) => {
+                                self.solenoid_on = false;
+                                self.search = Some(search);
+                                self.state = State::Regripping { action };
+                            }
+                            None => self.carry(action, now_us, pose),
+                        }
+                    }
                     AfterBackOut::Retry(action, attempt) => {
                         self.begin(action, attempt, now_us, pose, events);
                     }
@@ -837,6 +899,17 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     since_us,
                     open_since_us,
                 };
+                if switch && self.jammed(now_us, pose, action.drop) {
+                    self.reseats += 1;
+                    self.jam.reset();
+                    events.push(MissionEvent::Jammed);
+                    self.state = State::BackingOut {
+                        from: pose,
+                        then: AfterBackOut::Reseat(action),
+                        since_us: now_us,
+                    };
+                    return stop;
+                }
                 // Carrying, the switch is pressed by the part: the follower must arrive at the
                 // pose, not stop at the switch.
                 let (twist, arrival) = self.navigator.update(now_us, pose, false);
@@ -1703,6 +1776,106 @@ mod tests {
         assert_eq!(m.actions().outcomes, [(A, false), (b, true)]);
     }
 
+    /// Action `A` with its drop where the robot picks (it backs out 6 cm from there), a
+    /// robot whose drives to the drop stand still for `stall_ticks` ticks (a carried part
+    /// against a divider's tip) and whose part rides 15 mm to the left of its face; once it
+    /// jams, unless `stalls_after_a_regrip`, the drives arrive at once. The events, where
+    /// across the face the part sat at each grip after the pick, and the magnet's level at
+    /// each tick.
+    fn carry_jammed_at_the_drop(
+        stall_ticks: u32,
+        stalls_after_a_regrip: bool,
+    ) -> (Vec<MissionEvent>, Vec<f64>, Vec<bool>) {
+        use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
+        let mut m = mission_with_slots(
+            vec![A],
+            BTreeMap::from([(A.drop, Pose2::new(0.0, 0.0, 0.0))]),
+        );
+        m.navigator.moving = Some(BodyTwist::default());
+        let (mut events, mut grips, mut magnet) = (Vec::new(), Vec::new(), Vec::new());
+        let mut pose = Pose2::default();
+        let mut held = true;
+        let mut on_floor: Option<Pose2> = None;
+        for k in 0..3000u64 {
+            let pressed = held || on_floor.is_some_and(|p| plate_touches(pose, p));
+            let out = m.tick(k * 20_000, pose, pressed);
+            let was_on = magnet.last().copied().unwrap_or(false);
+            magnet.push(out.solenoid_on);
+            match (held, out.solenoid_on) {
+                (true, false) if was_on && matches!(m.state, State::Regripping { .. }) => {
+                    let at = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
+                    on_floor = Some(pose.compose(Pose2::new(at, 0.015, std::f64::consts::PI)));
+                    held = false;
+                }
+                (true, false) if was_on => held = false,
+                (false, true) => {
+                    if let Some(part) = on_floor.filter(|&p| plate_touches(pose, p)) {
+                        grips.push(pose.relative(part).y);
+                        held = true;
+                        on_floor = None;
+                    }
+                }
+                _ => {}
+            }
+            if out.events.contains(&MissionEvent::Picked { slot: A.pick }) {
+                m.navigator.extra_ticks = stall_ticks;
+            }
+            if out.events.contains(&MissionEvent::Jammed) && !stalls_after_a_regrip {
+                m.navigator.extra_ticks = 0;
+            }
+            pose = moved(pose, out.twist);
+            events.extend(out.events);
+            if matches!(m.state, State::Finished) {
+                break;
+            }
+        }
+        (events, grips, magnet)
+    }
+
+    #[test]
+    fn a_part_jammed_short_of_its_drop_is_let_go_gripped_again_centred_and_placed() {
+        // Two seconds standing still: jammed after one.
+        let (events, grips, magnet) = carry_jammed_at_the_drop(100, false);
+        let jammed = events.iter().position(|e| *e == MissionEvent::Jammed);
+        let regripped = events.iter().position(|e| *e == MissionEvent::Regripped);
+        assert!(jammed.is_some() && regripped > jammed, "{events:?}");
+        assert!(
+            events.contains(&MissionEvent::Placed { slot: A.drop }),
+            "{events:?}"
+        );
+        assert_eq!(
+            events
+                .iter()
+                .filter(|e| matches!(e, MissionEvent::Skipped { .. }))
+                .count(),
+            0
+        );
+        assert!(magnet.contains(&false), "the part was let go");
+        assert_eq!(grips.len(), 1, "{grips:?}");
+        assert!(
+            grips[0].abs() < 0.005,
+            "gripped {:.1} mm off centre",
+            grips[0] * 1e3
+        );
+    }
+
+    #[test]
+    fn a_part_that_jams_again_and_again_is_gripped_again_at_most_twice_an_action() {
+        // Every drive to the drop stands still longer than the drive timeout: after the
+        // second jam the robot pushes on until the drive times out.
+        let ticks = (MissionConfig::default().drive_timeout_s / 0.02) as u32 + 100;
+        let (events, _, _) = carry_jammed_at_the_drop(ticks, true);
+        let jams = events
+            .iter()
+            .filter(|e| **e == MissionEvent::Jammed)
+            .count();
+        assert_eq!(jams, jam::MAX_RESEATS as usize, "{events:?}");
+        assert!(events.contains(&MissionEvent::Skipped {
+            action: A,
+            reason: SkipReason::Unreachable
+        }));
+    }
+
     #[test]
     fn the_back_out_profile_covers_its_distance_within_its_limits() {
         for (distance, speed) in [(0.08, 0.3), (0.02, 0.3), (0.3, 0.12)] {
@@ -1711,7 +1884,7 @@ mod tests {
                 back_out_speed_m_s: speed,
                 ..MissionConfig::default()
             };
-            let profile = BackOutProfile::new(&config);
+            let profile = BackOutProfile::new(&config, distance);
             let dt = 1e-5;
             let (mut covered, mut last, mut t) = (0.0, 0.0, 0.0);
             while t < profile.duration_s() + 0.1 {

@@ -264,6 +264,7 @@ fn story_line(field: &Field, event: &RoundEvent) -> Option<String> {
             Event::ActionStarted { .. }
             | Event::Picked { .. }
             | Event::PartSlipped { .. }
+            | Event::PartJammed { .. }
             | Event::Regripped { .. }
             | Event::Placed { .. }
             | Event::Skipped { .. }

@@ -130,7 +130,7 @@ impl HmiTap {
                 self.carrying = None;
                 self.action = None;
             }
-            Event::PartSlipped { .. } => self.carrying = None,
+            Event::PartSlipped { .. } | Event::PartJammed { .. } => self.carrying = None,
             Event::Regripped { color } => self.carrying = Some(*color),
             Event::Skipped { .. } | Event::Finished => {
                 self.action = None;

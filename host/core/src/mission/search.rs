@@ -293,6 +293,25 @@ impl Search {
         }
     }
 
+    /// A search for a part about to be let go on purpose at `pose`, right at the face
+    /// (`mission::jam`): no braking (the magnet would take it up as it lies, off centre),
+    /// straight to the first look. `None` when every look would start against a wall: then
+    /// the part must not be let go.
+    pub(super) fn reseat(
+        trail: &Trail,
+        pose: Pose2,
+        now_us: u64,
+        config: &MissionConfig,
+        floor: &FreeSpace,
+    ) -> Option<Self> {
+        let mut search = Self::new(trail, pose, now_us, config, floor);
+        if search.looks.is_empty() {
+            return None;
+        }
+        search.line_up(now_us, pose);
+        Some(search)
+    }
+
     /// Every time of the search `held_us` later: the mission stood held that long (its clock
     /// stopped), so no phase's limit runs out meanwhile.
     pub(super) fn later(&mut self, held_us: u64) {

@@ -304,6 +304,7 @@ fn describe(actions: &TaskActions, event: MissionEvent) -> Event {
         },
         MissionEvent::PartSlipped => Event::PartSlipped { color },
         MissionEvent::Regripped => Event::Regripped { color },
+        MissionEvent::Jammed => Event::PartJammed { color },
         MissionEvent::Skipped { action, reason } => Event::Skipped {
             pick: action.pick,
             drop: action.drop,

@@ -53,6 +53,12 @@ pub enum Event {
         /// Its colour as the planner knows it.
         color: Option<PartColor>,
     },
+    /// The carried part stopped getting closer to its drop (`mission::jam`): the robot
+    /// backs off, lets it go and grips it again centred on its plate.
+    PartJammed {
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
     /// The part that fell off is held again.
     Regripped {
         /// Its colour as the planner knows it.
@@ -223,6 +229,10 @@ impl Event {
             }
             Self::PartSlipped { color } => format!(
                 "the {} part fell off the magnet: stopped, looking for it where it was last held",
+                color_word(*color)
+            ),
+            Self::PartJammed { color } => format!(
+                "the {} part stopped short of its drop: backing off to grip it again centred",
                 color_word(*color)
             ),
             Self::Regripped { color } => {
