@@ -249,7 +249,7 @@ pub enum MissionEvent {
     PartSlipped,
     /// The part that fell off is held again; the robot carries on to the drop.
     Regripped,
-    /// The carried part stopped getting closer to its drop ([`jam`]): the robot backs off,
+    /// The carried part stopped getting closer to its drop (`mission::jam`): the robot backs off,
     /// lets it go and grips it again centred on its plate.
     Jammed,
     /// An action failed for good.
