@@ -10,9 +10,11 @@
 //! proportional hold on the distance left, so the robot stops on the goal; it has arrived
 //! when its predicted stopping point is within `navigation.goal_tolerance_m`. The body
 //! twist is scaled as a whole to the wheel limit (direction kept,
-//! `Mecanum::limited_inverse`). In the docking approach the robot is already square to the
-//! face (the heading plan ends before it) and stops as soon as the box switch closes; at
-//! the goal it waits a few ticks for the switch before it counts as arrived by distance.
+//! `Mecanum::limited_inverse`). In the docking approach to a part ([`Route::docks_on_switch`])
+//! the robot is already square to the face (the heading plan ends before it) and stops as
+//! soon as the box switch closes; at the goal it waits a few ticks for the switch before it
+//! counts as arrived by distance. Carrying a part in, no switch is waited for: the robot
+//! brakes onto the drop pose and has arrived there.
 //! On a route that carries a part into a slot ([`Route::carries_part_in`]) the last
 //! segment's along-track speed also waits for the cross-track error, so the part goes in
 //! between the dividers on the slot's centre line.
@@ -203,7 +205,7 @@ impl PathFollower for Follower {
         let goal = route.goal();
         let length = route.length_m();
         let in_dock =
-            route.dock_length_m() > 0.0 && at.s_m >= length - route.dock_length_m() - DOCK_SLACK_M;
+            route.docks_on_switch() && at.s_m >= length - route.dock_length_m() - DOCK_SLACK_M;
         if in_dock && switch_pressed {
             self.status = Status::Docked;
             self.speed_m_s = 0.0;
@@ -224,7 +226,7 @@ impl PathFollower for Follower {
             // the goal, wait a few ticks at rest for the switch (it closes ~5 mm short of the
             // pick pose and its state arrives with the telemetry, `ratf_sim::parts::Gripper`).
             self.ticks_at_goal += 1;
-            if route.dock_length_m() <= 0.0 || self.ticks_at_goal > DOCK_SETTLE_TICKS {
+            if !route.docks_on_switch() || self.ticks_at_goal > DOCK_SETTLE_TICKS {
                 self.status = Status::Arrived;
             }
             self.speed_m_s = 0.0;
@@ -349,6 +351,29 @@ mod tests {
         let out = f.update(41_000, Pose2::new(0.95, 0.0, 0.0), true);
         assert_eq!(out.status, Status::Docked);
         assert_eq!(out.twist, BodyTwist::default());
+    }
+
+    #[test]
+    fn carrying_a_part_in_the_robot_arrives_on_the_pose_without_waiting_for_the_switch() {
+        let config = Config::default();
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.0)],
+            0.0,
+            0.0,
+            config.navigation.dock_length_m,
+        )
+        .unwrap();
+        let first_status_on_the_goal = |route: Route| {
+            let mut f = Follower::new(&config);
+            f.start(route);
+            f.update(1_000, Pose2::new(0.5, 0.0, 0.0), false).status
+        };
+        // To a part, the robot waits on the goal a few ticks for the switch.
+        assert_eq!(first_status_on_the_goal(route.clone()), Status::Following);
+        assert_eq!(
+            first_status_on_the_goal(route.carrying_part_in()),
+            Status::Arrived
+        );
     }
 
     /// Along the row, then down into a slot facing it (heading −90° throughout): on the last

@@ -1,6 +1,7 @@
 //! Speed and heading profiles along a route: trapezoidal in the path length remaining, with
-//! slow-downs before corners (by turn angle), in the docking approach and where the heading
-//! must turn faster than the yaw-rate limit allows at full speed.
+//! slow-downs before corners (by turn angle), in the docking approach to a part (not on the
+//! way into a drop: [`Route::docks_on_switch`]) and where the heading must turn faster than
+//! the yaw-rate limit allows at full speed.
 
 use std::f64::consts::PI;
 
@@ -127,7 +128,7 @@ impl Profile {
             });
         }
         let length = route.length_m();
-        if route.dock_length_m() > 0.0 {
+        if route.docks_on_switch() {
             zones.push(SpeedZone {
                 from_m: length - route.dock_length_m(),
                 to_m: length,
@@ -207,6 +208,28 @@ mod tests {
         assert_eq!(profile.speed_limit_m_s(2.5), 0.0);
         // Straight on: no corner cap.
         assert_eq!(corner_speed_m_s(0.0, 1.5, 0.05), f64::INFINITY);
+    }
+
+    #[test]
+    fn only_the_approach_to_a_part_is_capped_at_the_docking_speed() {
+        let config = NavigationConfig::default();
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0)],
+            0.0,
+            0.0,
+            config.dock_length_m,
+        )
+        .unwrap();
+        let inside_dock = 1.0 - config.dock_length_m / 2.0;
+        let cap_at = |route: &Route| {
+            let heading = HeadingPlan::new(route, &config);
+            Profile::new(route, &heading, &config).speed_limit_m_s(inside_dock)
+        };
+        assert_eq!(cap_at(&route), config.dock_speed_m_s);
+        // Carrying a part in, only the braking curve onto the goal limits the speed.
+        let braking = (2.0 * config.max_decel_m_s2 * config.dock_length_m / 2.0).sqrt();
+        assert!(braking > config.dock_speed_m_s);
+        assert!((cap_at(&route.carrying_part_in()) - braking).abs() < 1e-12);
     }
 
     #[test]

@@ -138,6 +138,14 @@ impl Route {
         self.dock_length_m
     }
 
+    /// Whether the route ends in a docking approach that closes the box switch on a part to
+    /// pick: the last `dock_length_m` at the docking speed, stopping when the switch closes.
+    /// A route that carries a part in ([`Self::carries_part_in`]) has no switch to close:
+    /// it brakes onto the drop pose as late as the deceleration limit allows.
+    pub fn docks_on_switch(&self) -> bool {
+        self.dock_length_m > 0.0 && !self.carries_part_in
+    }
+
     /// Unit direction of segment `index`.
     pub fn tangent(&self, index: usize) -> Vec2 {
         let i = index.min(self.points.len() - 2);

@@ -148,7 +148,16 @@ impl RouteTimes {
                 let route = match (from.robot_pose(&field), to.slot(&field)) {
                     (Some(start), Some(slot)) => {
                         let space = if to.is_pick() { &empty } else { &carrying };
-                        plan_route(&field, &map, space, start, slot, &config.navigation).ok()
+                        plan_route(&field, &map, space, start, slot, &config.navigation)
+                            .ok()
+                            .map(|route| {
+                                // As the navigator plans it (`competition::RouteNavigator`).
+                                if to.is_pick() {
+                                    route
+                                } else {
+                                    route.carrying_part_in()
+                                }
+                            })
                     }
                     _ => None,
                 };
