@@ -317,7 +317,7 @@ impl RouteNavigator {
 }
 
 impl Navigator for RouteNavigator {
-    fn go_to(&mut self, _now_us: u64, pose: Pose2, goal: WaypointId, dock: bool) {
+    fn go_to(&mut self, _now_us: u64, pose: Pose2, goal: WaypointId, dock: bool, velocity: Vec2) {
         self.dock = dock;
         self.creep_from = None;
         let Some(slot) = self.field.slot_for_waypoint(goal).copied() else {
@@ -366,7 +366,7 @@ impl Navigator for RouteNavigator {
             Ok(route) => {
                 self.failed = false;
                 self.route = Some(route.clone());
-                self.follower.start(route);
+                self.follower.start_moving(route, velocity);
             }
             Err(_) => {
                 self.failed = true;
@@ -445,9 +445,9 @@ mod tests {
             field.outgoing_slot(0).unwrap().waypoint,
         );
         let mut navigator = RouteNavigator::new(&config, Driving::Ours);
-        navigator.go_to(0, field.start_pose(), pick, true);
+        navigator.go_to(0, field.start_pose(), pick, true, Vec2::ZERO);
         assert!(!navigator.route().unwrap().carries_part_in());
-        navigator.go_to(0, field.start_pose(), drop, false);
+        navigator.go_to(0, field.start_pose(), drop, false, Vec2::ZERO);
         assert!(navigator.route().unwrap().carries_part_in());
     }
 

@@ -19,7 +19,7 @@
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); else it fell off the magnet: look for it (regripping) |
 //! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
-//! | backing out after the drop | the switch opened | report the part as stuck |
+//! | backing out after the drop | the switch open once 2 cm out (`RELEASE_SEEN_M`): placed, and the next action sets off in the same tick at the reverse's speed (its route leaves the slot straight) | still closed at the reverse's end: report the part as stuck |
 //!
 //! A skipped action is reported to the planner, which re-plans from what it knows.
 //!
@@ -43,7 +43,7 @@ mod search;
 use std::collections::BTreeMap;
 
 use crate::control::route::SLOT_EXIT_M;
-use crate::field::geometry::{Pose2, wrap_angle};
+use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::planning::shortcuts::FreeSpace;
@@ -102,8 +102,9 @@ pub enum Arrival {
 /// Drives to slots (the path follower behind an interface).
 pub trait Navigator {
     /// Start driving from `pose` to the slot `goal`'s pick pose. With `dock`, the last part
-    /// is the slow docking approach that ends when the switch closes.
-    fn go_to(&mut self, now_us: u64, pose: Pose2, goal: WaypointId, dock: bool);
+    /// is the slow docking approach that ends when the switch closes. `velocity` (m/s, world
+    /// frame) is how the robot moves now, zero at rest: the drive carries it on.
+    fn go_to(&mut self, now_us: u64, pose: Pose2, goal: WaypointId, dock: bool, velocity: Vec2);
     /// One tick: the twist to command and how it is going.
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Arrival);
     /// The robot was held still (the mission stood, [`Mission::hold`]): it is at rest now,
@@ -347,6 +348,13 @@ enum State {
 /// less than `back_out_m`, m/s (slow: the lagging estimate usually catches up in a tick
 /// or two).
 const BACK_OUT_CREEP_M_S: f64 = 0.03;
+
+/// How far the reverse after a drop must have gone before an open switch confirms the
+/// release, m. 0.02: the switch's lever reaches 5 mm beyond a held plate
+/// (`ratf_sim::parts::Gripper`: 20 mm beyond the front face, the magnet 15 mm), and the
+/// switch's state arrives a tick or two after it changes; a part stuck on the magnet keeps
+/// the switch closed the whole way.
+const RELEASE_SEEN_M: f64 = 0.02;
 
 /// The reverse out of a slot as a function of time: a trapezoid (or triangle) that covers
 /// `back_out_m` under `back_out_speed_m_s` and `back_out_accel_m_s2`. Open loop on time,
@@ -621,22 +629,41 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         now_us.saturating_sub(since_us) as f64 * 1e-6
     }
 
+    /// Set off for `action`'s part from `pose`, moving at `velocity` (world frame, m/s).
     fn begin(
         &mut self,
         action: Action,
         attempt: u32,
         now_us: u64,
-        pose: Pose2,
+        (pose, velocity): (Pose2, Vec2),
         events: &mut Vec<MissionEvent>,
     ) {
         events.push(MissionEvent::ActionStarted { action, attempt });
         self.reseats = 0;
-        self.navigator.go_to(now_us, pose, action.pick, true);
+        self.navigator
+            .go_to(now_us, pose, action.pick, true, velocity);
         self.state = State::ToPick {
             action,
             attempt,
             since_us: now_us,
         };
+    }
+
+    /// Ask the planner for the next action and set off on it from `pose` moving at `velocity`
+    /// (world frame, m/s); with none left, finish.
+    fn start_next(
+        &mut self,
+        now_us: u64,
+        (pose, velocity): (Pose2, Vec2),
+        events: &mut Vec<MissionEvent>,
+    ) {
+        match self.actions.next_action(now_us) {
+            Some(action) => self.begin(action, 1, now_us, (pose, velocity), events),
+            None => {
+                events.push(MissionEvent::Finished);
+                self.state = State::Finished;
+            }
+        }
     }
 
     fn skip(
@@ -674,7 +701,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// Carry `action`'s part to its drop slot from `pose`.
     fn carry(&mut self, action: Action, now_us: u64, pose: Pose2) {
-        self.navigator.go_to(now_us, pose, action.drop, false);
+        self.navigator
+            .go_to(now_us, pose, action.drop, false, Vec2::ZERO);
         self.jam.reset();
         self.trail.clear();
         self.state = State::ToDrop {
@@ -729,13 +757,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         let stop = BodyTwist::default();
         match self.state {
             State::Idle => {
-                match self.actions.next_action(now_us) {
-                    Some(action) => self.begin(action, 1, now_us, pose, events),
-                    None => {
-                        events.push(MissionEvent::Finished);
-                        self.state = State::Finished;
-                    }
-                }
+                self.start_next(now_us, (pose, Vec2::ZERO), events);
                 stop
             }
             State::Finished => stop,
@@ -826,6 +848,19 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 // three times the profile's duration.
                 let limit_s = 3.0 * profile.duration_s();
                 let done = travelled >= distance_m && elapsed_s >= profile.duration_s();
+                if let AfterBackOut::ConfirmRelease(action) = then
+                    && !switch
+                    && travelled >= RELEASE_SEEN_M
+                {
+                    // The switch opened as the face left the plate: the part stayed in its
+                    // slot. On to the next action without stopping: its route leaves the
+                    // slot straight (`control::route::plan_route`) at the reverse's speed.
+                    events.push(MissionEvent::Placed { slot: action.drop });
+                    self.actions.action_done(action, true, now_us);
+                    let reversing = Vec2::from_angle(pose.yaw_rad) * -profile.speed_m_s(elapsed_s);
+                    self.start_next(now_us, (pose, reversing), events);
+                    return self.advance(now_us, pose, switch, events);
+                }
                 if !done && elapsed_s < limit_s {
                     let speed = profile
                         .speed_m_s(elapsed_s)
@@ -847,7 +882,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         }
                     }
                     AfterBackOut::Retry(action, attempt) => {
-                        self.begin(action, attempt, now_us, pose, events);
+                        self.begin(action, attempt, now_us, (pose, Vec2::ZERO), events);
                     }
                     AfterBackOut::ConfirmRelease(action) => {
                         if switch {
@@ -971,6 +1006,8 @@ mod tests {
         ticks_left: u32,
         dock: bool,
         goals: Vec<(WaypointId, bool)>,
+        /// The robot's velocity each drive set off with (world frame, m/s).
+        departures: Vec<Vec2>,
         unreachable: Vec<WaypointId>,
         failing: bool,
         /// Ticks every drive takes beyond the first five.
@@ -982,7 +1019,15 @@ mod tests {
     }
 
     impl Navigator for FakeNavigator {
-        fn go_to(&mut self, _now_us: u64, _pose: Pose2, goal: WaypointId, dock: bool) {
+        fn go_to(
+            &mut self,
+            _now_us: u64,
+            _pose: Pose2,
+            goal: WaypointId,
+            dock: bool,
+            velocity: Vec2,
+        ) {
+            self.departures.push(velocity);
             self.ticks_left = 5 + self.extra_ticks;
             self.dock = dock;
             self.failing = self.unreachable.contains(&goal);
@@ -1312,8 +1357,9 @@ mod tests {
                 Activity::BackingOut,
                 Activity::ToDrop { slot: A.drop },
                 Activity::Releasing,
+                // The release is seen on the way out: the next step (here the end) follows
+                // in the same tick, with no tick of planning at rest.
                 Activity::BackingOut,
-                Activity::Planning,
                 Activity::Finished,
             ]
         );
@@ -1727,6 +1773,81 @@ mod tests {
             reason: SkipReason::NotHeld
         }));
         assert!(!m.solenoid_on, "the magnet is released after a failed grip");
+    }
+
+    /// After a drop the switch opens as the face leaves the plate: that confirms the release,
+    /// and the next drive sets off in the same tick at the reverse's speed (before, the
+    /// robot reversed the whole 8 cm, stopped, and started the next route from rest).
+    #[test]
+    fn a_release_seen_on_the_way_out_sets_off_on_the_next_action_without_stopping() {
+        let b = Action {
+            pick: WaypointId(51),
+            drop: WaypointId(63),
+        };
+        let mut m = mission(vec![A, b]);
+        m.config.exit_on_route_after_pick = true;
+        // Held from the dock to the release; after it, the lever touches the plate for the
+        // first 5 mm of the reverse.
+        let mut released_at: Option<Pose2> = None;
+        let mut ticks = Vec::new();
+        let mut pose = Pose2::default();
+        for k in 0..400u32 {
+            let state = m.state;
+            let pressed = match state {
+                State::ToPick { .. } | State::Gripping { .. } | State::ToDrop { .. } => true,
+                State::Releasing { .. } => true,
+                State::BackingOut {
+                    then: AfterBackOut::ConfirmRelease(_),
+                    ..
+                } => {
+                    let from = *released_at.get_or_insert(pose);
+                    from.position().distance(pose.position()) < 0.005
+                }
+                _ => false,
+            };
+            let out = m.tick(u64::from(k) * 20_000, pose, pressed);
+            ticks.push((state, out.twist, out.events.clone()));
+            pose = moved(pose, out.twist);
+        }
+        let placed = ticks
+            .iter()
+            .position(|(_, _, events)| events.contains(&MissionEvent::Placed { slot: A.drop }))
+            .expect("placed");
+        let (before, twist, events) = &ticks[placed];
+        assert!(
+            matches!(before, State::BackingOut { .. }),
+            "confirmed while reversing: {before:?}"
+        );
+        assert!(events.contains(&MissionEvent::ActionStarted {
+            action: b,
+            attempt: 1
+        }));
+        assert!(
+            twist.vx_m_s > 0.0,
+            "already driving to the next pick: {twist:?}"
+        );
+        // Confirmed once the reverse had gone `RELEASE_SEEN_M`, well short of its 8 cm.
+        let reversed = released_at.map(|from| from.position().distance(pose_at(&ticks, placed)));
+        assert!(
+            reversed.is_some_and(|d| (RELEASE_SEEN_M..m.config.back_out_m).contains(&d)),
+            "{reversed:?}"
+        );
+        // The next drive set off backwards (the robot faces +x), at the reverse's speed.
+        let departure = m.navigator.departures[2];
+        assert!(
+            departure.x < -0.1 && departure.y.abs() < 1e-9,
+            "{departure:?}"
+        );
+        assert_eq!(m.actions().outcomes, [(A, true), (b, true)]);
+    }
+
+    /// Where the robot of `ticks` (each tick's state, twist and events, starting at the
+    /// origin) stood at tick `k`.
+    fn pose_at(ticks: &[(State, BodyTwist, Vec<MissionEvent>)], k: usize) -> Vec2 {
+        ticks[..k]
+            .iter()
+            .fold(Pose2::default(), |pose, (_, twist, _)| moved(pose, *twist))
+            .position()
     }
 
     #[test]

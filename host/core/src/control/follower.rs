@@ -61,8 +61,15 @@ impl FollowerCommand {
 
 /// A path follower: a route in, a twist per tick out. Pure: time is an argument.
 pub trait PathFollower {
-    /// Start following `route` now.
+    /// Start following `route` now, from rest.
     fn start(&mut self, route: Route);
+    /// Start following `route` now with the robot moving at `velocity` (m/s, world frame),
+    /// so that it carries that motion on instead of being commanded to a stop first. The
+    /// default starts from rest.
+    fn start_moving(&mut self, route: Route, velocity: Vec2) {
+        let _ = velocity;
+        self.start(route);
+    }
     /// One tick at `now_us` with the pose estimate and the box switch.
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand;
     /// The robot was held still: it is at rest now, whatever was last commanded, and the
@@ -174,6 +181,15 @@ impl PathFollower for Follower {
         self.last_us = None;
         self.ticks_at_goal = 0;
         self.status = Status::Following;
+    }
+
+    fn start_moving(&mut self, route: Route, velocity: Vec2) {
+        // Along the first segment only: a velocity across it is the cross-track
+        // correction's to take out, not a speed to keep.
+        let along = velocity.dot(route.tangent(0)).max(0.0);
+        self.start(route);
+        self.speed_m_s = along;
+        self.last_velocity = velocity;
     }
 
     fn halted(&mut self) {
