@@ -11,7 +11,7 @@
 use crate::config::{Config, Policy as Driving};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
+use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_leg, plan_original_route};
 use crate::field::Field;
 use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Vec2};
@@ -337,21 +337,15 @@ impl Navigator for RouteNavigator {
                     footprint,
                     self.config.navigation.shortcut_margin_m,
                 );
-                plan_route(
+                plan_leg(
                     &self.field,
                     &self.map,
                     &space,
                     pose,
                     &slot,
                     &self.config.navigation,
+                    !dock,
                 )
-                .map(|route| {
-                    if dock {
-                        route
-                    } else {
-                        route.carrying_part_in()
-                    }
-                })
             }
             Driving::Original => {
                 self.follower = Box::new(

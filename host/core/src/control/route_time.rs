@@ -11,7 +11,7 @@
 //! goal, the lag), so it ranks legs rather than predicting them to the tenth of a second.
 use crate::config::{Config, NavigationConfig};
 use crate::control::profile::{HeadingPlan, Profile};
-use crate::control::route::{Route, plan_route};
+use crate::control::route::{Route, plan_leg};
 use crate::field::Field;
 use crate::field::geometry::Vec2;
 use crate::kinematics::{BodyTwist, Mecanum};
@@ -148,16 +148,17 @@ impl RouteTimes {
                 let route = match (from.robot_pose(&field), to.slot(&field)) {
                     (Some(start), Some(slot)) => {
                         let space = if to.is_pick() { &empty } else { &carrying };
-                        plan_route(&field, &map, space, start, slot, &config.navigation)
-                            .ok()
-                            .map(|route| {
-                                // As the navigator plans it (`competition::RouteNavigator`).
-                                if to.is_pick() {
-                                    route
-                                } else {
-                                    route.carrying_part_in()
-                                }
-                            })
+                        let carrying = !to.is_pick();
+                        plan_leg(
+                            &field,
+                            &map,
+                            space,
+                            start,
+                            slot,
+                            &config.navigation,
+                            carrying,
+                        )
+                        .ok()
                     }
                     _ => None,
                 };
