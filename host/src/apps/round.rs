@@ -942,7 +942,9 @@ mod tests {
     }
 
     /// The route displays show (HMI, ROS 2) is the navigator's own: on the way to a slot
-    /// it exists and ends at that slot's pick pose; otherwise there is none.
+    /// it exists and ends at that slot's pick pose (short of it by
+    /// [`ratf_core::control::route::DROP_SHORT_M`] carrying a part in); otherwise there is
+    /// none.
     #[test]
     fn the_planned_route_is_the_navigators_and_ends_at_the_slot_it_goes_to() {
         use ratf_core::mission::Activity;
@@ -958,7 +960,18 @@ mod tests {
                 match activity {
                     Some(Activity::ToPick { slot } | Activity::ToDrop { slot }) => {
                         let route = brain.planned_route().expect("a route on the way");
-                        let goal = self.field.slot_for_waypoint(slot).unwrap().pick_pose;
+                        let pick = self.field.slot_for_waypoint(slot).unwrap().pick_pose;
+                        // A part is let go a little short of the pick pose.
+                        let goal = match activity {
+                            Some(Activity::ToDrop { .. }) => {
+                                pick.compose(ratf_core::field::geometry::Pose2::new(
+                                    -ratf_core::control::route::DROP_SHORT_M,
+                                    0.0,
+                                    0.0,
+                                ))
+                            }
+                            _ => pick,
+                        };
                         assert_eq!(route.goal(), goal);
                         if activity != self.last {
                             self.legs += 1;

@@ -1,5 +1,6 @@
 //! Speed and heading profiles along a route: trapezoidal in the path length remaining, with
-//! slow-downs before corners (by turn angle), in the docking approach to a part (not on the
+//! slow-downs before corners (by turn angle, and the planner's cap where an overshoot would
+//! touch an obstacle, `control::route`), in the docking approach to a part (not on the
 //! way into a drop: [`Route::docks_on_switch`]) and where the heading must turn faster than
 //! the yaw-rate limit allows at full speed.
 
@@ -107,7 +108,8 @@ impl Profile {
                 route.turn_angle_rad(i),
                 config.max_accel_m_s2.min(config.max_decel_m_s2),
                 config.corner_blend_m,
-            );
+            )
+            .min(route.corner_cap_m_s(i));
             zones.push(SpeedZone {
                 from_m: s - config.corner_blend_m / 2.0,
                 to_m: s + config.corner_blend_m / 2.0,
