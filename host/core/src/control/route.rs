@@ -600,6 +600,22 @@ mod tests {
     use crate::field::waypoints::WaypointId;
     use crate::planning::shortcuts::Footprint;
 
+    /// The free space of a 30 × 30 cm body, `carrying` a part or not, with the default
+    /// shortcut margin.
+    fn square_body_space(field: &Field, carrying: bool) -> FreeSpace {
+        let footprint = Footprint {
+            length_m: 0.30,
+            width_m: 0.30,
+            carrying,
+        };
+        FreeSpace::new(
+            field,
+            &[],
+            footprint,
+            NavigationConfig::default().shortcut_margin_m,
+        )
+    }
+
     #[test]
     fn routes_end_square_at_every_pick_pose_from_the_start() {
         let field = Field::competition();
@@ -646,12 +662,7 @@ mod tests {
         let field = Field::competition();
         let map = RoadMap::new(WaypointGraph::original());
         let config = NavigationConfig::default();
-        let footprint = Footprint {
-            length_m: 0.30,
-            width_m: 0.30,
-            carrying: true,
-        };
-        let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+        let space = square_body_space(&field, true);
         let start = field.start_pose();
         for slot in field.slots() {
             let leg =
@@ -678,28 +689,12 @@ mod tests {
         let field = Field::competition();
         let config = NavigationConfig::default();
         let map = RoadMap::new(crate::planning::our_map::our_graph(&field, 0.30));
-        let space = |carrying| {
-            let footprint = Footprint {
-                length_m: 0.30,
-                width_m: 0.30,
-                carrying,
-            };
-            FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m)
-        };
+        let space = square_body_space(&field, true);
         let (from, to) = (
             field.incoming_slot(1).unwrap(),
             field.outgoing_slot(1).unwrap(),
         );
-        let carry = plan_leg(
-            &field,
-            &map,
-            &space(true),
-            from.pick_pose,
-            to,
-            &config,
-            true,
-        )
-        .unwrap();
+        let carry = plan_leg(&field, &map, &space, from.pick_pose, to, &config, true).unwrap();
         let corner = |route: &Route, at: Vec2| {
             (1..route.points().len() - 1)
                 .find(|&i| route.points()[i].distance(at) < 0.01)
@@ -777,12 +772,7 @@ mod tests {
         let field = Field::competition();
         let map = RoadMap::new(field.waypoints().clone());
         let config = NavigationConfig::default();
-        let footprint = Footprint {
-            length_m: 0.30,
-            width_m: 0.30,
-            carrying: true,
-        };
-        let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+        let space = square_body_space(&field, true);
         let goal = field.slot_for_waypoint(WaypointId(62)).unwrap();
         for from in field.slots().filter(|s| s.waypoint != goal.waypoint) {
             let normal = Vec2::from_angle(from.face_normal_rad);
