@@ -472,7 +472,7 @@ impl Deriver {
             action: Marker::DELETEALL,
             ..Marker::default()
         }];
-        let (Some(Activity::ToPick { slot } | Activity::ToDrop { slot }), Some(route)) =
+        let (Some(Activity::ToPick { .. } | Activity::ToDrop { .. }), Some(route)) =
             (core.brain().activity(), core.brain().planned_route())
         else {
             return MarkerArray { markers };
@@ -501,22 +501,21 @@ impl Deriver {
                 .collect(),
             ..Marker::default()
         });
-        if let Some(target) = self.field.slot_for_waypoint(slot) {
-            markers.push(Marker {
-                header: Header::new(stamp, frames::MAP),
-                ns: "path".into(),
-                id: 1,
-                kind: Marker::SPHERE,
-                pose: Pose::planar(target.pick_pose, 0.02),
-                scale: Vector3 {
-                    x: 0.04,
-                    y: 0.04,
-                    z: 0.04,
-                },
-                color,
-                ..Marker::default()
-            });
-        }
+        // The route's own goal: a drop's ends short of the slot's pick pose.
+        markers.push(Marker {
+            header: Header::new(stamp, frames::MAP),
+            ns: "path".into(),
+            id: 1,
+            kind: Marker::SPHERE,
+            pose: Pose::planar(route.goal(), 0.02),
+            scale: Vector3 {
+                x: 0.04,
+                y: 0.04,
+                z: 0.04,
+            },
+            color,
+            ..Marker::default()
+        });
         MarkerArray { markers }
     }
 
