@@ -5,7 +5,9 @@
 //! asks its [`Policy`] for a plan whenever the mission wants an action (re-planning from the
 //! known state after every action, competition.md §6), and updates the state with the
 //! outcome: a placed part moves (and is turned by the machine it went to); a part whose
-//! action failed is given up, so the mission carries on with the others. When the organisers'
+//! action failed is given up, so the mission carries on with the others; a part the mission
+//! took back to its slot because its drop could not be reached is tried again once the
+//! others are done, with that drop planned only if no other will do. When the organisers'
 //! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
 use crate::config::{Config, Policy as Driving};
@@ -37,6 +39,13 @@ pub enum SnapshotUse {
     Ignored,
 }
 
+/// Added to every planned trip to a drop the robot could not reach with a part, s (the
+/// part was taken back, [`ActionSource::action_returned`]): what blocked it (a part
+/// sticking out of the next slot, one knocked into the lane) may still be there, so the
+/// planner uses another drop if there is one. 60: longer than any round's plan, so any
+/// other drop is cheaper.
+const UNREACHED_DROP_PENALTY_S: f64 = 60.0;
+
 /// The task planner behind the mission's interface.
 pub struct TaskActions {
     field: Field,
@@ -52,6 +61,14 @@ pub struct TaskActions {
     picking_us: Option<u64>,
     /// Parts given up after a failed pick: where they were left and their colour.
     given_up: Vec<(tasks::Location, PartColor)>,
+    /// Parts taken back to their pick slot after their drop could not be reached
+    /// ([`ActionSource::action_returned`]): left out of the plans (and listed in `given_up`,
+    /// so a snapshot does not bring them back) until nothing else is left to do, then tried
+    /// once more.
+    deferred: Vec<PartState>,
+    /// Where and what each part taken back was: a part is taken back once; the next time
+    /// its action fails it is given up.
+    returned: Vec<(tasks::Location, PartColor)>,
     /// Parts given up so far.
     abandoned: usize,
     /// Snapshots folded in so far.
@@ -88,6 +105,8 @@ impl TaskActions {
             since_us: 0,
             picking_us: None,
             given_up: Vec::new(),
+            deferred: Vec::new(),
+            returned: Vec::new(),
             abandoned: 0,
             snapshots_applied: 0,
             disagreements: 0,
@@ -174,13 +193,52 @@ impl TaskActions {
     fn waypoint(&self, location: tasks::Location) -> Option<WaypointId> {
         location.waypoint(&self.field)
     }
+
+    /// Put the parts taken back into the plans again; false when there were none.
+    fn reinstate_deferred(&mut self) -> bool {
+        if self.deferred.is_empty() {
+            return false;
+        }
+        for part in std::mem::take(&mut self.deferred) {
+            if let Place::At(location) = part.place
+                && let Some(i) = self
+                    .given_up
+                    .iter()
+                    .position(|&given| given == (location, part.color))
+            {
+                self.given_up.remove(i);
+            }
+            self.state.parts.push(part);
+        }
+        true
+    }
+
+    /// The pending action's part, found where it was (a snapshot may have changed the
+    /// indices), with the action as planned and the part as it was then.
+    fn take_pending(&mut self, now_us: u64) -> Option<(tasks::Action, PartState, Option<usize>)> {
+        self.since_us = now_us;
+        self.picking_us = None;
+        let (pending, part) = self.pending.take()?;
+        let index = self
+            .state
+            .parts
+            .iter()
+            .position(|p| p.place == pending.from && p.color == part.color);
+        Some((pending, part, index))
+    }
 }
 
 impl ActionSource for TaskActions {
     fn next_action(&mut self, now_us: u64) -> Option<Action> {
         self.state.time_s = self.state.time_s.max(now_us as f64 * 1e-6);
-        let plan = self.policy.plan(&self.model, &self.state).ok()?;
-        let next = plan.next()?;
+        let plan = self.policy.plan(&self.model, &self.state).ok();
+        let next = match plan.as_ref().and_then(|plan| plan.next()) {
+            Some(next) => next,
+            None if self.reinstate_deferred() => {
+                self.policy.plan(&self.model, &self.state).ok()?.next()?
+            }
+            None => return None,
+        };
         let pick = match next.from {
             Place::At(location) => self.waypoint(location)?,
             // The mission always drops what it picked in the same action.
@@ -193,17 +251,9 @@ impl ActionSource for TaskActions {
     }
 
     fn action_done(&mut self, _action: Action, placed: bool, now_us: u64) {
-        self.since_us = now_us;
-        self.picking_us = None;
-        let Some((pending, part)) = self.pending.take() else {
+        let Some((pending, part, index)) = self.take_pending(now_us) else {
             return;
         };
-        // A snapshot may have changed the part indices: find the part where it was.
-        let index = self
-            .state
-            .parts
-            .iter()
-            .position(|p| p.place == pending.from && p.color == part.color);
         if placed {
             self.last_placed = Some(part.color);
         }
@@ -236,6 +286,32 @@ impl ActionSource for TaskActions {
             }
             // The server had already said the part was gone.
             (false, None) => {}
+        }
+        self.state.time_s = now_us as f64 * 1e-6;
+    }
+
+    fn action_returned(&mut self, action: Action, now_us: u64) {
+        let first_return = self.pending.is_some_and(|(pending, part)| {
+            matches!(pending.from, Place::At(l) if !self.returned.contains(&(l, part.color)))
+        });
+        if !first_return {
+            return self.action_done(action, false, now_us);
+        }
+        let Some((pending, _, index)) = self.take_pending(now_us) else {
+            return;
+        };
+        if let Some(to) = pending.to.index() {
+            // Whatever kept the robot from that drop may still be there.
+            self.model
+                .travel
+                .penalise_arrivals_at(to, UNREACHED_DROP_PENALTY_S);
+        }
+        if let (Some(index), Place::At(location)) = (index, pending.from) {
+            // Back where it was picked: plan the others first, then this one again.
+            let part = self.state.parts.remove(index);
+            self.deferred.push(part);
+            self.given_up.push((location, part.color));
+            self.returned.push((location, part.color));
         }
         self.state.time_s = now_us as f64 * 1e-6;
     }
@@ -501,6 +577,34 @@ mod tests {
         assert_ne!(second.pick, first.pick);
         actions.action_done(second, true, 10_000_000);
         assert_eq!(actions.next_action(10_000_000), None);
+    }
+
+    #[test]
+    fn a_part_taken_back_is_tried_again_after_the_others_elsewhere_and_given_up_at_its_second_failure()
+     {
+        use PartColor::*;
+        let incoming = [Some(Blue), Some(Blue), None, None];
+        let state = State::from_incoming(&incoming, Location::Start, 0.0);
+        let mut actions = TaskActions::new(model(1), Box::new(BranchAndBound::default()), state);
+        let first = actions.next_action(0).unwrap();
+        actions.action_returned(first, 5 * S);
+        assert_eq!(actions.abandoned(), 0);
+        let second = actions.next_action(5 * S).unwrap();
+        assert_ne!(second.pick, first.pick, "the others first");
+        assert_ne!(
+            second.drop, first.drop,
+            "not to the drop it could not reach"
+        );
+        actions.action_done(second, true, 10 * S);
+        let again = actions.next_action(10 * S).unwrap();
+        assert_eq!(again.pick, first.pick, "then the part taken back");
+        actions.action_returned(again, 15 * S);
+        assert_eq!(
+            actions.abandoned(),
+            1,
+            "taken back once: the second time it is given up"
+        );
+        assert_eq!(actions.next_action(15 * S), None);
     }
 
     const S: u64 = 1_000_000;

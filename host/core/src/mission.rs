@@ -14,7 +14,8 @@
 //! | to pick | docked (switch closed) | back out and approach again, then skip the action |
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
-//! | to drop | arrived at the drop pose | release where it stands is never done: keep the part, skip the action |
+//! | to drop | arrived at the drop pose | skip the action and take the part back to its pick slot (`return_given_up_part`; the original keeps it on the magnet) |
+//! | taking a given-up part back | arrived at its pick pose: release, back out, report the action failed | let it go where it stands, back out, report the action failed |
 //! | to drop, headed in, no closer for 1 s 3–15 cm short of it | — | jammed (`mission::jam`): back off 3 cm, let the part go and grip it again centred (regripping), at most twice an action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); else it fell off the magnet: look for it (regripping) |
 //! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
@@ -68,6 +69,12 @@ pub trait ActionSource {
     fn next_action(&mut self, now_us: u64) -> Option<Action>;
     /// The outcome of an action: `true` when the part was placed at its drop slot.
     fn action_done(&mut self, action: Action, placed: bool, now_us: u64);
+    /// The action failed, but its part was taken back to its pick slot and let go there
+    /// ([`MissionConfig::return_given_up_part`]): it may be tried again. By default, a
+    /// failed action.
+    fn action_returned(&mut self, action: Action, now_us: u64) {
+        self.action_done(action, false, now_us);
+    }
 }
 
 /// How far short of a drop's pick pose a robot may stand and a part it lets go still lie in
@@ -182,6 +189,15 @@ pub struct MissionConfig {
     /// the original never watched, original-system.md §6.4).
     #[serde(skip)]
     pub watch_carried_part: bool,
+    /// A carry given up (its drop unreachable, or not reached in `drive_timeout_s`) takes
+    /// the part back to the slot it was picked from and lets it go there, instead of
+    /// keeping it on the magnet: the next action's part could not be gripped past it, and
+    /// the planner, told the action failed, believes the part is where it was picked. If
+    /// that slot cannot be reached either, the part is let go where the robot stands. Not a
+    /// key: it follows `[competition] policy` (ours: on; the original had no timeouts,
+    /// original-system.md §6.4).
+    #[serde(skip)]
+    pub return_given_up_part: bool,
 }
 
 impl Default for MissionConfig {
@@ -204,6 +220,7 @@ impl Default for MissionConfig {
             exit_on_route_after_pick: false,
             confirm_release: true,
             watch_carried_part: true,
+            return_given_up_part: true,
         }
     }
 }
@@ -220,6 +237,7 @@ impl MissionConfig {
             exit_on_route_after_pick: true,
             confirm_release: false,
             watch_carried_part: false,
+            return_given_up_part: false,
             ..self
         }
     }
@@ -330,16 +348,18 @@ enum State {
         then: AfterBackOut,
         since_us: u64,
     },
-    /// Carrying the part to its drop slot; `open_since_us`: since when the switch is open.
+    /// Carrying the part to its drop slot, or with `returning` back to its pick slot (the
+    /// drop was given up); `open_since_us`: since when the switch is open.
     ToDrop {
         action: Action,
+        returning: bool,
         since_us: u64,
         open_since_us: Option<u64>,
     },
     /// The part fell off: looking for it (the search is the mission's `search`).
     Regripping { action: Action },
-    /// Magnet off, waiting for the part to settle.
-    Releasing { action: Action, since_us: u64 },
+    /// Magnet off, waiting for the part to settle; `then`: what follows the back-out.
+    Releasing { then: AfterBackOut, since_us: u64 },
     /// Nothing left: stopped.
     Finished,
 }
@@ -414,6 +434,9 @@ enum AfterBackOut {
     /// The part jammed short of its drop: let it go and grip it again centred on its plate
     /// ([`jam`]), then carry it.
     Reseat(Action),
+    /// A given-up action's part was let go ([`MissionConfig::return_given_up_part`]): tell
+    /// the planner the action failed, and whether the part is back at its pick slot.
+    Returned { action: Action, at_pick: bool },
 }
 
 impl AfterBackOut {
@@ -518,7 +541,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             State::ToPick { action, .. } => Activity::ToPick { slot: action.pick },
             State::Gripping { .. } => Activity::Gripping,
             State::BackingOut { .. } => Activity::BackingOut,
-            State::ToDrop { action, .. } => Activity::ToDrop { slot: action.drop },
+            State::ToDrop {
+                action, returning, ..
+            } => Activity::ToDrop {
+                slot: Self::carry_target(action, returning),
+            },
             State::Releasing { .. } => Activity::Releasing,
             State::Regripping { .. } => Activity::Regripping,
             State::Finished => Activity::Finished,
@@ -707,9 +734,67 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         self.trail.clear();
         self.state = State::ToDrop {
             action,
+            returning: false,
             since_us: now_us,
             open_since_us: None,
         };
+    }
+
+    /// Where a carried part goes: its drop slot, or `returning`, the slot it was picked from.
+    fn carry_target(action: Action, returning: bool) -> WaypointId {
+        if returning { action.pick } else { action.drop }
+    }
+
+    /// What follows letting a part go at its carry's target.
+    fn after_release(action: Action, returning: bool) -> AfterBackOut {
+        if returning {
+            AfterBackOut::Returned {
+                action,
+                at_pick: true,
+            }
+        } else {
+            AfterBackOut::ConfirmRelease(action)
+        }
+    }
+
+    /// The carry of `action`'s part could not reach its target from `pose`. Ours takes the
+    /// part back to its pick slot ([`MissionConfig::return_given_up_part`]), and if that
+    /// fails too lets it go where it stands; the original keeps it and gives the action up.
+    fn give_up_carry(
+        &mut self,
+        action: Action,
+        returning: bool,
+        now_us: u64,
+        pose: Pose2,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        if !self.config.return_given_up_part {
+            self.skip(action, SkipReason::Unreachable, now_us, events);
+        } else if returning {
+            self.solenoid_on = false;
+            self.state = State::Releasing {
+                then: AfterBackOut::Returned {
+                    action,
+                    at_pick: false,
+                },
+                since_us: now_us,
+            };
+        } else {
+            events.push(MissionEvent::Skipped {
+                action,
+                reason: SkipReason::Unreachable,
+            });
+            self.navigator
+                .go_to(now_us, pose, action.pick, false, Vec2::ZERO);
+            self.jam.reset();
+            self.trail.clear();
+            self.state = State::ToDrop {
+                action,
+                returning: true,
+                since_us: now_us,
+                open_since_us: None,
+            };
+        }
     }
 
     /// One tick of the search for a part that fell off the magnet.
@@ -884,6 +969,14 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     AfterBackOut::Retry(action, attempt) => {
                         self.begin(action, attempt, now_us, (pose, Vec2::ZERO), events);
                     }
+                    AfterBackOut::Returned { action, at_pick } => {
+                        if at_pick {
+                            self.actions.action_returned(action, now_us);
+                        } else {
+                            self.actions.action_done(action, false, now_us);
+                        }
+                        self.state = State::Idle;
+                    }
                     AfterBackOut::ConfirmRelease(action) => {
                         if switch {
                             self.skip(action, SkipReason::Stuck, now_us, events);
@@ -898,9 +991,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             }
             State::ToDrop {
                 action,
+                returning,
                 since_us,
                 open_since_us,
             } => {
+                let target = Self::carry_target(action, returning);
                 let open_since_us = (self.config.watch_carried_part && !switch)
                     .then(|| open_since_us.unwrap_or(now_us));
                 if switch {
@@ -909,13 +1004,20 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 if let Some(open_us) = open_since_us
                     && Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s
                 {
-                    if self.at_drop(pose, action.drop) {
+                    if self.at_drop(pose, target) {
                         // Let go at the drop (a hold took the magnet): the part is in its slot.
                         self.solenoid_on = false;
                         self.state = State::Releasing {
-                            action,
+                            then: Self::after_release(action, returning),
                             since_us: now_us,
                         };
+                        return stop;
+                    }
+                    if returning {
+                        // A given-up part fell on its way back: it is not looked for.
+                        self.solenoid_on = false;
+                        self.actions.action_done(action, false, now_us);
+                        self.state = State::Idle;
                         return stop;
                     }
                     events.push(MissionEvent::PartSlipped);
@@ -931,10 +1033,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 }
                 self.state = State::ToDrop {
                     action,
+                    returning,
                     since_us,
                     open_since_us,
                 };
-                if switch && self.jammed(now_us, pose, action.drop) {
+                if !returning && switch && self.jammed(now_us, pose, action.drop) {
                     self.reseats += 1;
                     self.jam.reset();
                     events.push(MissionEvent::Jammed);
@@ -961,17 +1064,17 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     Arrival::Arrived | Arrival::Docked => {
                         self.solenoid_on = false;
                         self.state = State::Releasing {
-                            action,
+                            then: Self::after_release(action, returning),
                             since_us: now_us,
                         };
                         stop
                     }
                     Arrival::Failed => {
-                        self.skip(action, SkipReason::Unreachable, now_us, events);
+                        self.give_up_carry(action, returning, now_us, pose, events);
                         stop
                     }
                     Arrival::Moving if timed_out => {
-                        self.skip(action, SkipReason::Unreachable, now_us, events);
+                        self.give_up_carry(action, returning, now_us, pose, events);
                         stop
                     }
                     // The switch is open: brake until it is known whether the part is lost.
@@ -980,11 +1083,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 }
             }
             State::Regripping { action } => self.regrip(action, now_us, pose, switch, events),
-            State::Releasing { action, since_us } => {
+            State::Releasing { then, since_us } => {
                 if Self::elapsed_s(now_us, since_us) >= self.config.release_settle_s {
                     self.state = State::BackingOut {
                         from: pose,
-                        then: AfterBackOut::ConfirmRelease(action),
+                        then,
                         since_us: now_us,
                     };
                 }
@@ -1060,6 +1163,8 @@ mod tests {
     struct Script {
         todo: Vec<Action>,
         outcomes: Vec<(Action, bool)>,
+        /// Actions whose part was taken back to its pick slot.
+        returned: Vec<Action>,
     }
 
     impl ActionSource for Script {
@@ -1073,6 +1178,11 @@ mod tests {
 
         fn action_done(&mut self, action: Action, placed: bool, _now_us: u64) {
             self.outcomes.push((action, placed));
+        }
+
+        fn action_returned(&mut self, action: Action, now_us: u64) {
+            self.returned.push(action);
+            self.action_done(action, false, now_us);
         }
     }
 
@@ -1290,7 +1400,7 @@ mod tests {
             FakeNavigator::default(),
             Script {
                 todo,
-                outcomes: Vec::new(),
+                ..Script::default()
             },
             FreeSpace::empty(
                 Footprint {
@@ -1895,6 +2005,106 @@ mod tests {
         );
         assert!(events.contains(&MissionEvent::Placed { slot: b.drop }));
         assert_eq!(m.actions().outcomes, [(A, false), (b, true)]);
+    }
+
+    /// A carry to an unreachable drop: the part goes back to its pick slot, where the magnet
+    /// lets it go, and only then is the planner told the action failed. Ours only: the
+    /// original's mission keeps the part and gives up at once.
+    fn carry_to_an_unreachable_drop(
+        config: MissionConfig,
+    ) -> (
+        Mission<FakeNavigator, Script>,
+        Vec<MissionEvent>,
+        Option<WaypointId>,
+    ) {
+        let mut m = mission(vec![A]);
+        m.config = config;
+        m.navigator.unreachable = vec![A.drop];
+        let mut events = Vec::new();
+        let mut let_go_driving_to = None;
+        let mut magnet = false;
+        for k in 0..600u64 {
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || magnet;
+            let out = m.tick(k * 20_000, Pose2::default(), pressed);
+            if magnet && !out.solenoid_on {
+                let_go_driving_to = m.navigator.goals.last().map(|&(goal, _)| goal);
+            }
+            magnet = out.solenoid_on;
+            events.extend(out.events);
+            if m.is_finished() {
+                break;
+            }
+        }
+        (m, events, let_go_driving_to)
+    }
+
+    #[test]
+    fn a_part_whose_drop_cannot_be_reached_is_taken_back_to_its_slot_and_let_go_there() {
+        let (m, events, let_go_driving_to) = carry_to_an_unreachable_drop(MissionConfig::default());
+        assert!(
+            events.contains(&MissionEvent::Skipped {
+                action: A,
+                reason: SkipReason::Unreachable
+            }),
+            "{events:?}"
+        );
+        assert!(
+            !events
+                .iter()
+                .any(|e| matches!(e, MissionEvent::Placed { .. }))
+        );
+        assert_eq!(
+            m.navigator.goals,
+            [(A.pick, true), (A.drop, false), (A.pick, false)],
+            "to the part, to the drop, back to the pick slot carrying it"
+        );
+        assert_eq!(let_go_driving_to, Some(A.pick));
+        assert!(!m.solenoid_on());
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+        assert_eq!(
+            m.actions().returned,
+            [A],
+            "back at its slot: it may be tried again"
+        );
+        assert!(m.is_finished());
+
+        let (m, _, let_go) = carry_to_an_unreachable_drop(MissionConfig::default().original());
+        assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
+        assert_eq!(let_go, None, "the original keeps the part on the magnet");
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+    }
+
+    #[test]
+    fn a_given_up_part_whose_slot_cannot_be_reached_either_is_let_go_where_the_robot_stands() {
+        let mut m = mission(vec![A]);
+        let (mut magnet, mut events) = (false, Vec::new());
+        for k in 0..600u64 {
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || magnet;
+            let out = m.tick(k * 20_000, Pose2::default(), pressed);
+            if out
+                .events
+                .iter()
+                .any(|e| matches!(e, MissionEvent::Picked { .. }))
+            {
+                m.navigator.unreachable = vec![A.pick, A.drop];
+            }
+            magnet = out.solenoid_on;
+            events.extend(out.events);
+            if m.is_finished() {
+                break;
+            }
+        }
+        assert_eq!(
+            m.navigator.goals.last(),
+            Some(&(A.pick, false)),
+            "{events:?}"
+        );
+        assert!(!m.solenoid_on(), "the part is let go");
+        assert_eq!(m.actions().outcomes, [(A, false)]);
+        assert!(m.actions().returned.is_empty(), "not at its slot: given up");
+        assert!(m.is_finished());
     }
 
     /// Action `A` with its drop where the robot picks (it backs out 6 cm from there), a

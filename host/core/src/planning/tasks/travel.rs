@@ -149,6 +149,19 @@ impl TravelMatrix {
         self.seconds[from][to]
     }
 
+    /// Add `extra_s` to every trip that ends at location index `to` (out of range: no
+    /// change): a slot the robot could not reach is then planned only when nothing else
+    /// will do.
+    pub fn penalise_arrivals_at(&mut self, to: usize, extra_s: f64) {
+        for (from, row) in self.seconds.iter_mut().enumerate() {
+            if let Some(s) = row.get_mut(to)
+                && from != to
+            {
+                *s += extra_s;
+            }
+        }
+    }
+
     /// Whether every entry is finite and ≥ 0.
     pub fn is_valid(&self) -> bool {
         self.seconds
