@@ -728,13 +728,20 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// Carry `action`'s part to its drop slot from `pose`.
     fn carry(&mut self, action: Action, now_us: u64, pose: Pose2) {
+        self.carry_to(action, false, now_us, pose);
+    }
+
+    /// Carry `action`'s part from `pose` to its drop slot, or `returning`, back to the slot
+    /// it was picked from.
+    fn carry_to(&mut self, action: Action, returning: bool, now_us: u64, pose: Pose2) {
+        let target = Self::carry_target(action, returning);
         self.navigator
-            .go_to(now_us, pose, action.drop, false, Vec2::ZERO);
+            .go_to(now_us, pose, target, false, Vec2::ZERO);
         self.jam.reset();
         self.trail.clear();
         self.state = State::ToDrop {
             action,
-            returning: false,
+            returning,
             since_us: now_us,
             open_since_us: None,
         };
@@ -784,16 +791,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 action,
                 reason: SkipReason::Unreachable,
             });
-            self.navigator
-                .go_to(now_us, pose, action.pick, false, Vec2::ZERO);
-            self.jam.reset();
-            self.trail.clear();
-            self.state = State::ToDrop {
-                action,
-                returning: true,
-                since_us: now_us,
-                open_since_us: None,
-            };
+            self.carry_to(action, true, now_us, pose);
         }
     }
 
