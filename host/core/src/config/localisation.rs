@@ -122,6 +122,14 @@ pub struct LocalisationConfig {
     /// typical (1.39, the χ²(2) median). 5.99: the χ²(2) 95 % quantile. A median, so that
     /// one ghost beside one beacon does not trigger it.
     pub inflate_above_median_nis: f64,
+    /// NIS of the pose correction a scan's beacons (at least three) agree on, against the
+    /// pose covariance, above which the odometry is taken to have slipped (χ² with 3 degrees
+    /// of freedom: x, y, θ), when the beacons agree with each other about that correction;
+    /// the pose covariance is then scaled up until that NIS is typical (2.37, the χ²(3)
+    /// median). The scan as one measurement sees a common error the single beacons do not:
+    /// with four beacons it weighs about four times as much as one. 11.34: the χ²(3) 99 %
+    /// quantile.
+    pub inflate_above_joint_nis: f64,
     /// Standard deviation of the four beacons' common shift, per axis, m: a consider
     /// parameter (`localisation::consider`), not estimated but added to the reported pose
     /// covariance. 0.001: after `ratf calibrate` with the poles measured from the floor
@@ -177,6 +185,7 @@ impl Default for LocalisationConfig {
             gate_chi2: 9.21,
             relock_after_scans: 3,
             inflate_above_median_nis: 5.99,
+            inflate_above_joint_nis: 11.34,
             beacon_frame_shift_std_m: 0.001,
             beacon_frame_rotation_std_deg: 0.1,
             lidar_zero_angle_std_deg: 0.05,
@@ -468,6 +477,18 @@ impl LocalisationConfig {
             || {
                 "must be above the χ²(2) median 1.39 and at most 100 (the median NIS of a \
                  consistent filter is 1.39)"
+                    .to_owned()
+            },
+        );
+        c.require(
+            "inflate_above_joint_nis",
+            num(self.inflate_above_joint_nis),
+            self.inflate_above_joint_nis.is_finite()
+                && self.inflate_above_joint_nis > 2.37
+                && self.inflate_above_joint_nis <= 1000.0,
+            || {
+                "must be above the χ²(3) median 2.37 and at most 1000 (the joint NIS of a \
+                 consistent filter is 2.37; 1000 turns the test off in practice)"
                     .to_owned()
             },
         );

@@ -1,17 +1,19 @@
 //! [`Localiser`]: our estimator (model in the parent module's doc).
 
-use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix};
+use nalgebra::{Matrix2, Matrix3, Matrix4, SMatrix, Vector2, Vector3};
 
 use super::beacons::{Expected, extract};
 use super::consider::Consider;
-use super::ekf::{BIAS, EkfState, Observation, StepInput, THETA, UpdateOutcome, X, Y};
+use super::ekf::{
+    BIAS, EkfState, Observation, StepInput, THETA, UpdateOutcome, X, Y, predicted_measurement,
+};
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
 use super::{Health, PoseEstimator, ScanReport};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
-use crate::field::geometry::{Pose2, Vec2};
+use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::{Beacon, Field};
 use crate::odometry::BodyIncrement;
 
@@ -181,6 +183,20 @@ impl Localiser {
         j * sigma * j.transpose()
     }
 
+    /// The candidate for the beacon at `centre` with the smallest NIS against `state`, with
+    /// that NIS.
+    fn best_candidate<'a>(
+        &self,
+        state: &EkfState,
+        candidates: &'a [Observation],
+        centre: Vec2,
+    ) -> Option<(f64, &'a Observation)> {
+        candidates
+            .iter()
+            .filter_map(|o| state.nis(o, centre, self.mount).map(|nis| (nis, o)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
     /// Offer the candidate of `beacon` with the smallest NIS to the filter.
     fn offer(
         &mut self,
@@ -190,10 +206,7 @@ impl Localiser {
         report: &mut ScanReport,
     ) {
         let centre = beacon.circle.center;
-        let best = candidates
-            .iter()
-            .filter_map(|o| state.nis(o, centre, self.mount).map(|nis| (nis, o)))
-            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let best = self.best_candidate(state, candidates, centre);
         let Some((_, obs)) = best else {
             report.beacons_unseen += 1;
             return;
@@ -232,9 +245,8 @@ impl Localiser {
             .iter()
             .zip(&self.beacons)
             .filter_map(|(obs, b)| {
-                obs.iter()
-                    .filter_map(|o| scaled.nis(o, b.circle.center, self.mount))
-                    .min_by(f64::total_cmp)
+                self.best_candidate(&scaled, obs, b.circle.center)
+                    .map(|(nis, _)| nis)
             })
             .collect();
         if nis.len() < 3 {
@@ -249,32 +261,94 @@ impl Localiser {
         })
     }
 
+    /// The pose correction the scan's beacons agree on, as one measurement: each beacon's
+    /// best candidate (smallest NIS against `state`) linearised at `state`, combined by
+    /// weighted least squares over (x, y, θ). `None` with fewer than three beacons seen (the
+    /// fit then has no residual to show whether the beacons agree) or a singular geometry.
+    fn joint_correction(
+        &self,
+        state: &EkfState,
+        candidates: &[Vec<Observation>],
+    ) -> Option<JointCorrection> {
+        let mut rows = Vec::new();
+        for (obs, beacon) in candidates.iter().zip(&self.beacons) {
+            let centre = beacon.circle.center;
+            let Some((_, best)) = self.best_candidate(state, obs, centre) else {
+                continue;
+            };
+            let (h, jac) = predicted_measurement(&state.mean, centre, self.mount)?;
+            let innovation = Vector2::new(best.range_m - h.x, wrap_angle(best.bearing_rad - h.y));
+            let weight = best.covariance.try_inverse()?;
+            rows.push((
+                jac.fixed_view::<2, 3>(0, X).into_owned(),
+                innovation,
+                weight,
+            ));
+        }
+        if rows.len() < 3 {
+            return None;
+        }
+        let mut information = Matrix3::zeros();
+        let mut projected = Vector3::zeros();
+        for (h, nu, w) in &rows {
+            information += h.transpose() * w * h;
+            projected += h.transpose() * w * nu;
+        }
+        let correction = information.try_inverse()? * projected;
+        let residual_chi2 = rows
+            .iter()
+            .map(|(h, nu, w)| {
+                let r = nu - h * correction;
+                (r.transpose() * w * r)[(0, 0)]
+            })
+            .sum();
+        Some(JointCorrection {
+            correction,
+            information,
+            residual_chi2,
+            residual_dof: 2 * rows.len() - 3,
+        })
+    }
+
     /// When the scan's beacons disagree with the prediction as a whole, scale the pose
-    /// covariance up until their median NIS is the χ²(2) median, at most by the factor
-    /// that brings one of x, y, θ to its reset variance.
+    /// covariance up until they are typical again, at most by the factor that brings one
+    /// of x, y, θ to its reset variance. Two tests, the larger scale kept: the median NIS
+    /// of the beacons one by one (`inflate_above_median_nis`, brought to the χ²(2) median),
+    /// and the NIS of the correction they agree on (`inflate_above_joint_nis`, brought to
+    /// the χ²(3) median) when their residuals about it are within the χ² 99 % quantile, so
+    /// that a ghost beside one beacon triggers neither.
     fn inflate_if_inconsistent(&mut self, state: &mut EkfState, candidates: &[Vec<Observation>]) {
         const CHI2_2_MEDIAN: f64 = 1.386;
-        let Some(median) = self.median_nis(state, 1.0, candidates) else {
-            return;
-        };
-        if median <= self.config.inflate_above_median_nis {
+        const CHI2_3_MEDIAN: f64 = 2.366;
+        let median_triggered = self
+            .median_nis(state, 1.0, candidates)
+            .is_some_and(|median| median > self.config.inflate_above_median_nis);
+        let joint = self
+            .joint_correction(state, candidates)
+            .filter(|j| j.residual_chi2 <= chi2_99(j.residual_dof))
+            .filter(|j| j.nis(state, 1.0) > self.config.inflate_above_joint_nis);
+        if !median_triggered && joint.is_none() {
             return;
         }
         let reset = EkfState::new(state.pose(), 0.0, 0.0, &self.config);
-        let max_scale = (X..=THETA)
+        let max_log_scale = (X..=THETA)
             .map(|i| reset.covariance[(i, i)] / state.covariance[(i, i)].max(1e-12))
             .fold(f64::INFINITY, f64::min)
-            .max(1.0);
-        // Bisection on log(scale): the median NIS falls as the covariance grows.
-        let (mut lo, mut hi) = (0.0, max_scale.ln());
-        for _ in 0..30 {
-            let mid = 0.5 * (lo + hi);
-            match self.median_nis(state, mid.exp(), candidates) {
-                Some(m) if m > CHI2_2_MEDIAN => lo = mid,
-                _ => hi = mid,
-            }
-        }
-        *state = scale_pose_covariance(state, hi.exp());
+            .max(1.0)
+            .ln();
+        // Bisection on log(scale): both statistics fall as the covariance grows.
+        let median_log_scale = if median_triggered {
+            bisect_log_scale(max_log_scale, |scale| {
+                self.median_nis(state, scale, candidates)
+                    .is_some_and(|m| m > CHI2_2_MEDIAN)
+            })
+        } else {
+            0.0
+        };
+        let joint_log_scale = joint.map_or(0.0, |j| {
+            bisect_log_scale(max_log_scale, |scale| j.nis(state, scale) > CHI2_3_MEDIAN)
+        });
+        *state = scale_pose_covariance(state, median_log_scale.max(joint_log_scale).exp());
         self.health.inflations += 1;
     }
 
@@ -297,6 +371,58 @@ impl Localiser {
             state.covariance[(i, i)] = state.covariance[(i, i)].max(reset.covariance[(i, i)]);
         }
     }
+}
+
+/// A scan's beacons as one measurement of the pose ([`Localiser::joint_correction`]).
+#[derive(Clone, Copy, Debug)]
+struct JointCorrection {
+    /// The (x, y, θ) correction to the prediction the beacons agree on, m and rad.
+    correction: Vector3<f64>,
+    /// Its information (the inverse of its covariance).
+    information: Matrix3<f64>,
+    /// The beacons' χ² about it.
+    residual_chi2: f64,
+    /// That χ²'s degrees of freedom: two per beacon less three.
+    residual_dof: usize,
+}
+
+impl JointCorrection {
+    /// The correction's NIS against `state`'s pose covariance scaled by `scale`: χ² with 3
+    /// degrees of freedom when the prediction and the beacons are both as uncertain as
+    /// they say.
+    fn nis(&self, state: &EkfState, scale: f64) -> f64 {
+        let Some(measured) = self.information.try_inverse() else {
+            return 0.0;
+        };
+        let total = pose_covariance(state) * scale + measured;
+        total.try_inverse().map_or(0.0, |t| {
+            (self.correction.transpose() * t * self.correction)[(0, 0)]
+        })
+    }
+}
+
+/// The χ² 99 % quantile for `dof` degrees of freedom (the Wilson–Hilferty approximation,
+/// within 1 % from 3 degrees of freedom up).
+fn chi2_99(dof: usize) -> f64 {
+    const Z_99: f64 = 2.326;
+    let k = dof.max(1) as f64;
+    let a = 2.0 / (9.0 * k);
+    k * (1.0 - a + Z_99 * a.sqrt()).powi(3)
+}
+
+/// The log of the smallest scale in [1, e^`max_log_scale`] at which `too_large` turns false
+/// (it must fall as the scale grows), by bisection.
+fn bisect_log_scale(max_log_scale: f64, too_large: impl Fn(f64) -> bool) -> f64 {
+    let (mut lo, mut hi) = (0.0, max_log_scale);
+    for _ in 0..30 {
+        let mid = 0.5 * (lo + hi);
+        if too_large(mid.exp()) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
 }
 
 /// `state` with its pose covariance scaled by `scale` (the pose–bias cross terms by

@@ -62,7 +62,14 @@
 //! prediction, and the beacons would then all be gated out while the error grows. So before
 //! the updates, when the median NIS of the scan's beacons (at least three) exceeds
 //! `inflate_above_median_nis`, the pose covariance is scaled up until the median is typical;
-//! a median, so a single ghost beside one beacon cannot trigger it. When no beacon is applied for
+//! a median, so a single ghost beside one beacon cannot trigger it. A slip too small for
+//! any beacon alone (a pure translation of 1–2 cm against beacons each known to about
+//! 8 mm) is seen by the beacons together: the (x, y, θ) correction they agree on, fitted by
+//! weighted least squares, is one measurement about twice as precise as any of them. When
+//! its NIS against the prediction exceeds `inflate_above_joint_nis` (χ²(3)) while the
+//! beacons' residuals about it are within the χ² 99 % quantile (they do agree: no ghost),
+//! the covariance is scaled up until that NIS is typical, so the scan takes the slip at
+//! once rather than a third of it per scan. When no beacon is applied for
 //! `relock_after_scans` scans in a row, the pose covariance is raised back to the reset
 //! values around the current mean, so that the beacons can be found and taken again.
 //!
@@ -175,7 +182,8 @@ pub struct Health {
     /// reached the configured limit.
     pub relocks: u64,
     /// Scans whose beacons disagreed with the prediction as a whole (median NIS above
-    /// `inflate_above_median_nis`), so the pose covariance was scaled up (unmodelled slip).
+    /// `inflate_above_median_nis`, or the correction they agree on above
+    /// `inflate_above_joint_nis`), so the pose covariance was scaled up (unmodelled slip).
     pub inflations: u64,
 }
 
