@@ -1021,8 +1021,9 @@ fn loc_bench_command(
         *calibrated,
         |condition, seed, ours, original| {
             eprintln!(
-                "{condition:?} seed {seed}: position RMSE ours {:.4} m, original {:.4} m",
-                ours.pos_rmse_m, original.pos_rmse_m
+                "{condition:?} seed {seed}: position RMSE ours {:.4} m (NEES {:.2}), original \
+                 {:.4} m (NEES {:.2})",
+                ours.pos_rmse_m, ours.nees_mean, original.pos_rmse_m, original.nees_mean
             );
         },
     )?;
