@@ -64,6 +64,7 @@ fn nees_is_consistent_on_synthetic_runs() {
             beacon_frame_shift_std_m: 0.0,
             beacon_frame_rotation_std_deg: 0.0,
             lidar_zero_angle_std_deg: 0.0,
+            lidar_mount_position_std_m: 0.0,
             ..LocalisationConfig::default()
         };
         let mut loc = Localiser::new(

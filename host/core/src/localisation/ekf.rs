@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix2, Matrix4, SMatrix, Vector2, Vector4};
 
-use super::consider::Consider;
+use super::consider::{Consider, Sensitivity};
 
 use crate::config::LocalisationConfig;
 use crate::field::geometry::{Pose2, Vec2, hypot, wrap_angle};
@@ -96,8 +96,8 @@ pub struct EkfState {
     /// Covariance of the error relative to the beacons (what the gate and the gain use).
     pub covariance: Matrix4<f64>,
     /// ∂mean/∂p, p the consider parameters (beacons' common shift x, y and rotation, the
-    /// lidar's zero-angle error); zero after a reset.
-    pub sensitivity: Matrix4<f64>,
+    /// lidar's zero-angle error and its position on the robot); zero after a reset.
+    pub sensitivity: Sensitivity,
 }
 
 impl EkfState {
@@ -108,7 +108,7 @@ impl EkfState {
         Self {
             mean: Vector4::new(pose.x, pose.y, wrap_angle(pose.yaw_rad), bias_rad_s),
             covariance: Matrix4::from_diagonal(&Vector4::new(sp * sp, sp * sp, sh * sh, bias_var)),
-            sensitivity: Matrix4::zeros(),
+            sensitivity: Sensitivity::zeros(),
         }
     }
 
@@ -243,6 +243,8 @@ impl EkfState {
             return UpdateOutcome::Gated { nis };
         }
         let k = self.covariance * jac.transpose() * s_inv;
+        // The consider Jacobian is taken where the measurement's was: at the prior.
+        let prior_yaw_rad = self.mean[THETA];
         self.mean += k * nu;
         self.mean[THETA] = wrap_angle(self.mean[THETA]);
         // Joseph form: stays symmetric positive semi-definite with rounding errors.
@@ -250,7 +252,8 @@ impl EkfState {
         let p = i_kh * self.covariance * i_kh.transpose() + k * obs.covariance * k.transpose();
         self.covariance = symmetric(p);
         let h_position = jac.fixed_view::<2, 2>(0, 0).into_owned();
-        self.sensitivity = i_kh * self.sensitivity + k * consider.jacobian(beacon, &h_position);
+        self.sensitivity =
+            i_kh * self.sensitivity + k * consider.jacobian(beacon, &h_position, prior_yaw_rad);
         UpdateOutcome::Applied { nis }
     }
 
@@ -315,7 +318,7 @@ mod tests {
 
     fn no_consider() -> Consider {
         Consider {
-            covariance: Matrix4::zeros(),
+            covariance: super::super::consider::ParameterCovariance::zeros(),
             centre: Vec2::ZERO,
         }
     }

@@ -75,13 +75,14 @@
 //!
 //! **Errors common to every scan** ([`consider`]). After calibration the beacons still
 //! stand, as a whole, a few millimetres and about a tenth of a degree off where the
-//! configuration puts them, and the lidar's zero angle is off by a few hundredths of a
-//! degree. No scan can see that (the beacons are the only reference), and treating it as
+//! configuration puts them, the lidar's zero angle is off by a few hundredths of a degree,
+//! and the lidar sits a few millimetres from where the robot's file puts it (a ruler's
+//! measure, not calibrated). No scan can see that (the beacons are the only reference), and treating it as
 //! per-scan noise would make the filter ever more sure of a biased pose. These are consider
 //! parameters: not estimated; each state carries the estimate's sensitivity to them, and
 //! the covariance reported ([`PoseEstimator::covariance`], [`Health`]) adds what they
 //! contribute (`beacon_frame_shift_std_m`, `beacon_frame_rotation_std_deg`,
-//! `lidar_zero_angle_std_deg`). The gate and the gain keep the covariance relative to the
+//! `lidar_zero_angle_std_deg`, `lidar_mount_position_std_m`). The gate and the gain keep the covariance relative to the
 //! beacons, which is what a shift common to all of them leaves unchanged.
 //!
 //! # The original ([`original::OriginalFilter`])
