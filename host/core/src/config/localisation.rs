@@ -489,31 +489,42 @@ impl LocalisationConfig {
             "scans",
             "100 scans is 14 s at 7 Hz, a quarter of a round",
         );
-        c.require(
+        nis_threshold(
+            c,
             "inflate_above_median_nis",
-            num(self.inflate_above_median_nis),
-            self.inflate_above_median_nis.is_finite()
-                && self.inflate_above_median_nis > 1.39
-                && self.inflate_above_median_nis <= 100.0,
-            || {
-                "must be above the χ²(2) median 1.39 and at most 100 (the median NIS of a \
-                 consistent filter is 1.39)"
-                    .to_owned()
-            },
+            self.inflate_above_median_nis,
+            (2, 1.39),
+            100.0,
+            "the median NIS of a consistent filter is 1.39",
         );
-        c.require(
+        nis_threshold(
+            c,
             "inflate_above_joint_nis",
-            num(self.inflate_above_joint_nis),
-            self.inflate_above_joint_nis.is_finite()
-                && self.inflate_above_joint_nis > 2.37
-                && self.inflate_above_joint_nis <= 1000.0,
-            || {
-                "must be above the χ²(3) median 2.37 and at most 1000 (the joint NIS of a \
-                 consistent filter is 2.37; 1000 turns the test off in practice)"
-                    .to_owned()
-            },
+            self.inflate_above_joint_nis,
+            (3, 2.37),
+            1000.0,
+            "the joint NIS of a consistent filter is 2.37; 1000 turns the test off in practice",
         );
     }
+}
+
+/// Check a χ² threshold above which the filter counts a scan as inconsistent: above the
+/// median of its χ² (`dof`, `median`) — a consistent filter's typical value — and at most
+/// `max`; `why` is said in the error.
+fn nis_threshold(
+    c: &mut Checker<'_>,
+    key: &str,
+    value: f64,
+    (dof, median): (u32, f64),
+    max: f64,
+    why: &str,
+) {
+    c.require(
+        key,
+        num(value),
+        value.is_finite() && value > median && value <= max,
+        || format!("must be above the χ²({dof}) median {median} and at most {max} ({why})"),
+    );
 }
 
 #[cfg(test)]
@@ -536,5 +547,28 @@ mod tests {
             keys,
             ["localisation.history_steps", "localisation.gate_chi2"]
         );
+    }
+
+    #[test]
+    fn an_inflation_threshold_at_or_below_its_median_is_named_with_the_median() {
+        let mut issues = Vec::new();
+        let bad = LocalisationConfig {
+            inflate_above_median_nis: 1.0,
+            inflate_above_joint_nis: f64::NAN,
+            lidar_mount_position_std_m: -0.001,
+            ..LocalisationConfig::default()
+        };
+        bad.check(&mut Checker::new("localisation", &mut issues));
+        let keys: Vec<_> = issues.iter().map(|i| i.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            [
+                "localisation.inflate_above_median_nis",
+                "localisation.inflate_above_joint_nis",
+                "localisation.lidar_mount_position_std_m",
+            ]
+        );
+        assert!(issues[0].reason.contains("χ²(2) median 1.39"), "{issues:?}");
+        assert!(issues[1].reason.contains("χ²(3) median 2.37"), "{issues:?}");
     }
 }
