@@ -294,7 +294,8 @@ impl Localiser {
             information += h.transpose() * w * h;
             projected += h.transpose() * w * nu;
         }
-        let correction = information.try_inverse()? * projected;
+        let covariance = information.try_inverse()?;
+        let correction = covariance * projected;
         let residual_chi2 = rows
             .iter()
             .map(|(h, nu, w)| {
@@ -304,7 +305,7 @@ impl Localiser {
             .sum();
         Some(JointCorrection {
             correction,
-            information,
+            covariance,
             residual_chi2,
             residual_dof: 2 * rows.len() - 3,
         })
@@ -378,8 +379,8 @@ impl Localiser {
 struct JointCorrection {
     /// The (x, y, θ) correction to the prediction the beacons agree on, m and rad.
     correction: Vector3<f64>,
-    /// Its information (the inverse of its covariance).
-    information: Matrix3<f64>,
+    /// Its covariance, from the beacons' own.
+    covariance: Matrix3<f64>,
     /// The beacons' χ² about it.
     residual_chi2: f64,
     /// That χ²'s degrees of freedom: two per beacon less three.
@@ -391,10 +392,7 @@ impl JointCorrection {
     /// degrees of freedom when the prediction and the beacons are both as uncertain as
     /// they say.
     fn nis(&self, state: &EkfState, scale: f64) -> f64 {
-        let Some(measured) = self.information.try_inverse() else {
-            return 0.0;
-        };
-        let total = pose_covariance(state) * scale + measured;
+        let total = pose_covariance(state) * scale + self.covariance;
         total.try_inverse().map_or(0.0, |t| {
             (self.correction.transpose() * t * self.correction)[(0, 0)]
         })
