@@ -11,7 +11,7 @@
 //! the direction of motion is kept. The robot's software never sees the ground truth: its
 //! pose is the estimator's.
 
-use crate::config::{Config, LidarConfig};
+use crate::config::{Config, LidarConfig, Policy};
 use crate::field::geometry::Pose2;
 use crate::kinematics::{BodyTwist, Mecanum};
 use crate::localisation::{Health, Localiser, OriginalFilter, PoseEstimator};
@@ -52,6 +52,16 @@ pub enum EstimatorKind {
 }
 
 impl EstimatorKind {
+    /// The estimator `policy` drives with: ours runs our localiser; the original preset runs
+    /// the original filter, as the 5dpo robot did (a faithful baseline localises as the
+    /// original did, no better).
+    pub const fn for_policy(policy: Policy) -> Self {
+        match policy {
+            Policy::Ours => Self::Localiser,
+            Policy::Original => Self::Original,
+        }
+    }
+
     /// A fresh estimator of this kind believing the robot is at `pose` at `time_us`.
     pub fn build(self, config: &Config, pose: Pose2, time_us: u64) -> Box<dyn PoseEstimator> {
         // The robot's beliefs: the beacons where the team measured them.
@@ -177,10 +187,11 @@ pub struct Robot {
 }
 
 impl Robot {
-    /// A core for the robot in `config`, with our localiser, believing it starts at
-    /// `start_pose`.
+    /// A core for the robot in `config`, with the estimator of its policy
+    /// ([`EstimatorKind::for_policy`]), believing it starts at `start_pose`.
     pub fn new(config: &Config, start_pose: Pose2) -> Self {
-        Self::with_estimator(config, EstimatorKind::Localiser, start_pose)
+        let kind = EstimatorKind::for_policy(config.competition.policy);
+        Self::with_estimator(config, kind, start_pose)
     }
 
     /// A core with the pose estimator `kind`.
@@ -297,6 +308,7 @@ mod tests {
     use super::*;
     use crate::drivers::mega_link::WheelTelemetry;
     use crate::runtime::Timestamp;
+    use nalgebra::{Matrix3, Vector3};
 
     fn telemetry(totals: [i32; 4]) -> Stamped {
         with_switch(totals, false)
@@ -318,6 +330,18 @@ mod tests {
                 sampled_at_us: 0,
             }),
         )
+    }
+
+    #[test]
+    fn each_policy_drives_with_its_own_estimator() {
+        let original_p0 =
+            Matrix3::from_diagonal(&Vector3::from(crate::localisation::original::P0_DIAGONAL));
+        let mut config = Config::default();
+        let ours = Robot::new(&config, Pose2::default());
+        assert_ne!(ours.estimation().estimator().covariance(), original_p0);
+        config.competition.policy = Policy::Original;
+        let original = Robot::new(&config, Pose2::default());
+        assert_eq!(original.estimation().estimator().covariance(), original_p0);
     }
 
     #[test]

@@ -889,16 +889,30 @@ mod tests {
     }
 
     #[test]
-    fn every_round_reaches_full_score_at_seed_1_with_both_policies() {
-        for policy in Policy::ALL {
-            for (r, points) in [(1, 4), (2, 6), (3, 8)] {
-                // The original lets go of its last part as it finishes: that placement
-                // scores too.
-                let report = round(r, policy);
-                assert_eq!(report.points, points, "round {r} {policy}: {report:?}");
-                assert_eq!(report.outgoing, 4, "round {r} {policy}: {report:?}");
-                assert!(report.time_s > 0.0);
-            }
+    fn every_round_reaches_full_score_at_seed_1_with_ours() {
+        for (r, points) in [(1, 4), (2, 6), (3, 8)] {
+            let report = round(r, Policy::Ours);
+            assert_eq!(report.points, points, "round {r}: {report:?}");
+            assert_eq!(report.outgoing, 4, "round {r}: {report:?}");
+            assert!(report.time_s > 0.0);
+            assert!(report.pos_rmse_m < 0.005, "round {r}: {report:?}");
+        }
+    }
+
+    /// The original preset is the 5dpo robot whole, its filter included
+    /// (`EstimatorKind::for_policy`): it scores, and it localises to centimetres and
+    /// degrees as that filter does (`bench localisation`), not to our localiser's
+    /// millimetres.
+    #[test]
+    fn the_original_preset_plays_every_round_with_its_own_filter() {
+        for r in 1..=3 {
+            let report = round(r, Policy::Original);
+            assert!(
+                report.points > 0 && report.outgoing > 0,
+                "round {r}: {report:?}"
+            );
+            assert!(report.pos_rmse_m > 0.010, "round {r}: {report:?}");
+            assert!(report.heading_rmse_deg > 1.0, "round {r}: {report:?}");
         }
     }
 
@@ -922,6 +936,11 @@ mod tests {
                 .iter()
                 .find(|r| r.round == row.round && r.policy == row.policy)
                 .unwrap();
+            // The original preset, with its own filter, need not score in full: the ratio
+            // and the split are checked on ours.
+            if row.policy == Policy::Original {
+                continue;
+            }
             assert_eq!(row.full_score_rate, 1.0, "{report:?}");
             // No run beats the bound, and the ratio is the run's own.
             assert!(report.time_s > row.bound_s, "{report:?} against {row:?}");
@@ -1091,7 +1110,11 @@ mod tests {
             for policy in Policy::ALL {
                 let report = round(r, policy);
                 assert!(report.server_snapshots > 0, "round {r}: {report:?}");
-                assert_eq!(report.server_disagreements, 0, "round {r}: {report:?}");
+                // The original preset, localising to centimetres, knocks or drops parts,
+                // which the server then no longer shows where the robot left them.
+                if policy == Policy::Ours {
+                    assert_eq!(report.server_disagreements, 0, "round {r}: {report:?}");
+                }
             }
         }
     }

@@ -74,9 +74,10 @@ pub struct Core {
 
 impl Core {
     /// A core for `config` (its round, policy and beliefs), believing the robot starts at
-    /// `start_pose`, with our localiser.
+    /// `start_pose`, with the estimator of its policy ([`EstimatorKind::for_policy`]).
     pub fn new(config: &Config, start_pose: Pose2) -> Result<Self, TaskError> {
-        Self::with_estimator(config, EstimatorKind::Localiser, start_pose)
+        let kind = EstimatorKind::for_policy(config.competition.policy);
+        Self::with_estimator(config, kind, start_pose)
     }
 
     /// A core with the pose estimator `kind`.
