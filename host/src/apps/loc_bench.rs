@@ -74,6 +74,12 @@ pub struct Metrics {
     pub max_pos_err_m: f64,
     /// Mean normalised estimation error squared (3 dof: 3 when consistent).
     pub nees_mean: f64,
+    /// The position's share: its error against its own 2 × 2 covariance (2 when
+    /// consistent). With [`Self::nees_heading_mean`] it says which part of the covariance
+    /// is off: the two need not add up to the whole, which also weighs their correlation.
+    pub nees_position_mean: f64,
+    /// The heading's: its error squared over its variance (1 when consistent).
+    pub nees_heading_mean: f64,
     /// Runs whose position error exceeded 0.05 m after the first 2 s.
     pub divergences: u32,
     /// Runs.
@@ -88,6 +94,8 @@ struct Accumulator {
     heading_sq: f64,
     max_pos: f64,
     nees_sum: f64,
+    nees_position_sum: f64,
+    nees_heading_sum: f64,
     nees_samples: u64,
     divergences: u32,
     runs: u32,
@@ -101,6 +109,8 @@ impl Accumulator {
             heading_rmse_deg: (self.heading_sq / n).sqrt().to_degrees(),
             max_pos_err_m: self.max_pos,
             nees_mean: self.nees_sum / self.nees_samples.max(1) as f64,
+            nees_position_mean: self.nees_position_sum / self.nees_samples.max(1) as f64,
+            nees_heading_mean: self.nees_heading_sum / self.nees_samples.max(1) as f64,
             divergences: self.divergences,
             runs: self.runs,
         }
@@ -127,8 +137,16 @@ impl RunScore {
         self.acc.pos_sq += pos * pos;
         self.acc.heading_sq += e.z * e.z;
         self.acc.max_pos = self.acc.max_pos.max(pos);
-        if let Some(inverse) = estimator.covariance().try_inverse() {
+        let covariance = estimator.covariance();
+        let position_covariance = covariance.fixed_view::<2, 2>(0, 0).into_owned();
+        if let (Some(inverse), Some(position_inverse)) =
+            (covariance.try_inverse(), position_covariance.try_inverse())
+        {
+            let position = e.fixed_rows::<2>(0).into_owned();
             self.acc.nees_sum += (e.transpose() * inverse * e)[(0, 0)];
+            self.acc.nees_position_sum +=
+                (position.transpose() * position_inverse * position)[(0, 0)];
+            self.acc.nees_heading_sum += e.z * e.z / covariance[(2, 2)];
             self.acc.nees_samples += 1;
         }
         self.diverged |= pos > DIVERGENCE_M;
@@ -140,6 +158,8 @@ impl RunScore {
         total.heading_sq += self.acc.heading_sq;
         total.max_pos = total.max_pos.max(self.acc.max_pos);
         total.nees_sum += self.acc.nees_sum;
+        total.nees_position_sum += self.acc.nees_position_sum;
+        total.nees_heading_sum += self.acc.nees_heading_sum;
         total.nees_samples += self.acc.nees_samples;
         total.divergences += u32::from(self.diverged);
         total.runs += 1;
@@ -421,6 +441,63 @@ mod tests {
                 "{a:?} -> {b:?} is not an edge"
             );
         }
+    }
+
+    /// An estimator that reports a fixed pose and covariance.
+    struct Fixed {
+        pose: Pose2,
+        covariance: nalgebra::Matrix3<f64>,
+    }
+
+    impl PoseEstimator for Fixed {
+        fn on_odometry(&mut self, _: u64, _: ratf_core::odometry::BodyIncrement) {}
+        fn on_gyro(&mut self, _: &ratf_core::drivers::imu::ImuSample) {}
+        fn on_scan(&mut self, _: &ratf_core::drivers::x4::scan::Scan) {}
+        fn pose(&self) -> Pose2 {
+            self.pose
+        }
+        fn covariance(&self) -> nalgebra::Matrix3<f64> {
+            self.covariance
+        }
+        fn health(&self) -> ratf_core::localisation::Health {
+            ratf_core::localisation::Health::default()
+        }
+        fn reset(&mut self, _: Pose2, _: u64) {}
+    }
+
+    #[test]
+    fn the_nees_splits_into_the_position_and_the_heading_share() {
+        // 2 mm and 1 mm off along x and y, against σ 1 mm with a correlation of ½; 0.3° off
+        // in heading against σ 0.1°.
+        let sigma_heading = 0.1_f64.to_radians();
+        let estimator = Fixed {
+            pose: Pose2::new(0.002, 0.001, 0.3_f64.to_radians()),
+            covariance: nalgebra::Matrix3::new(
+                1e-6,
+                0.5e-6,
+                0.0,
+                0.5e-6,
+                1e-6,
+                0.0,
+                0.0,
+                0.0,
+                sigma_heading * sigma_heading,
+            ),
+        };
+        let mut score = RunScore::default();
+        score.sample(&estimator, Pose2::default());
+        let metrics = score.acc.metrics();
+        // [2 1] [[1 ½] [½ 1]]⁻¹ [2 1]ᵀ = (4 − 2 + 1) / (1 − ¼) = 4.
+        assert!(
+            (metrics.nees_position_mean - 4.0).abs() < 1e-9,
+            "{metrics:?}"
+        );
+        assert!(
+            (metrics.nees_heading_mean - 9.0).abs() < 1e-9,
+            "{metrics:?}"
+        );
+        // Uncorrelated with the heading: the whole is the sum of the shares.
+        assert!((metrics.nees_mean - 13.0).abs() < 1e-9, "{metrics:?}");
     }
 
     #[test]

@@ -1029,18 +1029,28 @@ fn loc_bench_command(
     )?;
     let row = |name: &str, condition: &str, m: &Metrics| {
         println!(
-            "{name:<9} {condition:<8} {:>10.4} {:>12.3} {:>11.4} {:>9.2} {:>11} {:>5}",
-            m.pos_rmse_m, m.heading_rmse_deg, m.max_pos_err_m, m.nees_mean, m.divergences, m.runs
+            "{name:<9} {condition:<8} {:>10.4} {:>12.3} {:>11.4} {:>9.2} {:>9.2} {:>9.2} {:>11} \
+             {:>5}",
+            m.pos_rmse_m,
+            m.heading_rmse_deg,
+            m.max_pos_err_m,
+            m.nees_mean,
+            m.nees_position_mean,
+            m.nees_heading_mean,
+            m.divergences,
+            m.runs
         );
     };
     println!(
-        "{:<9} {:<8} {:>10} {:>12} {:>11} {:>9} {:>11} {:>5}",
+        "{:<9} {:<8} {:>10} {:>12} {:>11} {:>9} {:>9} {:>9} {:>11} {:>5}",
         "filter",
         "cond.",
         "pos RMSE m",
         "heading RMSE°",
         "max err m",
         "NEES",
+        "NEES x,y",
+        "NEES θ",
         "divergences",
         "runs"
     );
@@ -1057,7 +1067,8 @@ fn loc_bench_command(
     let (lo, hi) = nees_band(3, args.seeds as u32);
     println!(
         "scored after the first 2 s; divergence: > 0.05 m after 2 s; consistent NEES (3 dof, \
-         {} runs): mean within [{lo:.2}, {hi:.2}]; {:.1} s wall",
+         {} runs): mean within [{lo:.2}, {hi:.2}]; its position and heading shares: about 2 and \
+         1; {:.1} s wall",
         args.seeds,
         started.elapsed().as_secs_f64()
     );
