@@ -14,12 +14,12 @@ use crate::mission::MissionConfig;
 #[serde(rename_all = "snake_case")]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum Policy {
-    /// Our task planner (branch and bound) and our navigation (route planner, holonomic
-    /// follower, docking on the switch).
+    /// Our task planner (branch and bound), our localiser and our navigation (route
+    /// planner, holonomic follower, docking on the switch).
     #[default]
     Ours,
     /// The original 5dpo team's priority planner, line follower and creep to the switch
-    /// (original-system.md §6), for comparison.
+    /// (original-system.md §6) and its beacon filter (§5), for comparison.
     Original,
 }
 
