@@ -18,8 +18,13 @@ use ratf_sim::testkit::{
 };
 
 fn localiser(pose: Pose2) -> Localiser {
+    localiser_with(&LocalisationConfig::default(), pose)
+}
+
+/// A localiser with `config`, the default robot on the competition field, at `pose` at t = 0.
+fn localiser_with(config: &LocalisationConfig, pose: Pose2) -> Localiser {
     Localiser::new(
-        &LocalisationConfig::default(),
+        config,
         &RobotConfig::default(),
         &Field::competition(),
         pose,
@@ -67,13 +72,7 @@ fn nees_is_consistent_on_synthetic_runs() {
             lidar_mount_position_std_m: 0.0,
             ..LocalisationConfig::default()
         };
-        let mut loc = Localiser::new(
-            &config,
-            &RobotConfig::default(),
-            &Field::competition(),
-            figure_eight(0.0),
-            0,
-        );
+        let mut loc = localiser_with(&config, figure_eight(0.0));
         let samples = run(&mut loc, &scenario);
         let (pos, head) = rmse(&samples, 2.0);
         let kept: Vec<f64> = samples
@@ -259,13 +258,7 @@ fn a_translation_slip_the_beacons_agree_on_is_taken_in_one_scan() {
             inflate_above_joint_nis: joint_nis,
             ..LocalisationConfig::default()
         };
-        let mut loc = Localiser::new(
-            &config,
-            &RobotConfig::default(),
-            &Field::competition(),
-            straight(0.0),
-            0,
-        );
+        let mut loc = localiser_with(&config, straight(0.0));
         let mut rng = SimRng::new(8);
         let settled = scans_along_straight(&mut loc, &truth, 0..14, &mut rng);
         assert!(settled < 0.003, "{settled} m before the slip");

@@ -32,7 +32,7 @@ use ratf_core::field::Field;
 use ratf_core::field::geometry::{Pose2, Vec2, wrap_angle};
 use ratf_core::field::waypoints::WaypointId;
 use ratf_core::kinematics::BodyTwist;
-use ratf_core::localisation::PoseEstimator;
+use ratf_core::localisation::{PoseEstimator, chi2_quantile};
 use ratf_core::rng::SimRng;
 use ratf_core::robot::{Estimation, EstimatorKind};
 use ratf_sim::harness::SimulatedRobot;
@@ -416,15 +416,14 @@ fn run_once(
 
 /// The 95 % two-sided band of the mean NEES of `runs` independent runs of a consistent
 /// `dof`-dimensional estimator: the χ²(dof·runs) quantiles divided by `runs`
-/// (Wilson–Hilferty approximation of the quantiles).
+/// ([`chi2_quantile`]).
 pub fn nees_band(dof: u32, runs: u32) -> (f64, f64) {
     let k = f64::from(dof * runs.max(1));
-    let quantile = |z: f64| {
-        let h = 2.0 / (9.0 * k);
-        k * (1.0 - h + z * h.sqrt()).powi(3)
-    };
     let n = f64::from(runs.max(1));
-    (quantile(-1.959_964) / n, quantile(1.959_964) / n)
+    (
+        chi2_quantile(k, -1.959_964) / n,
+        chi2_quantile(k, 1.959_964) / n,
+    )
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use super::ekf::{
 };
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
-use super::{Health, PoseEstimator, ScanReport};
+use super::{Health, PoseEstimator, ScanReport, chi2_quantile};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
@@ -399,13 +399,10 @@ impl JointCorrection {
     }
 }
 
-/// The χ² 99 % quantile for `dof` degrees of freedom (the Wilson–Hilferty approximation,
-/// within 1 % from 3 degrees of freedom up).
+/// The χ² 99 % quantile for `dof` degrees of freedom.
 fn chi2_99(dof: usize) -> f64 {
     const Z_99: f64 = 2.326;
-    let k = dof.max(1) as f64;
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + Z_99 * a.sqrt()).powi(3)
+    chi2_quantile(dof as f64, Z_99)
 }
 
 /// The log of the smallest scale in [1, e^`max_log_scale`] at which `too_large` turns false

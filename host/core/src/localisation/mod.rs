@@ -201,3 +201,13 @@ impl Health {
         self.heading_std_rad = p[(2, 2)].max(0.0).sqrt();
     }
 }
+
+/// The χ² quantile with `dof` degrees of freedom at the standard normal quantile `z` (for
+/// example 2.326 for 99 %, ±1.96 for a 95 % two-sided band), by the Wilson–Hilferty
+/// approximation: within 1 % from 3 degrees of freedom up. Used for the localiser's
+/// consistency tests and the benchmark's NEES band.
+pub fn chi2_quantile(dof: f64, z: f64) -> f64 {
+    let k = dof.max(1.0);
+    let h = 2.0 / (9.0 * k);
+    k * (1.0 - h + z * h.sqrt()).powi(3)
+}
