@@ -4,8 +4,8 @@
 //! comes back at the same name. The robot must finish the round with the full score and
 //! never drive blind: from the device thread's fault until the device
 //! speaks again (the Mega's telemetry, a lidar scan with a point) every wheel command the
-//! core produced is zero, and the magnet is off from 100 ms (the silence guard's
-//! `MAGNET_OFF_AFTER_US`) plus one tick on. The recording holds every input and output.
+//! core produced is zero, and the magnet is off from the silence guard's
+//! `MAGNET_OFF_AFTER_US` (60 ms) plus one tick on. The recording holds every input and output.
 //!
 //! The Mega's cable goes out while the robot drives empty (seed 1: between the first
 //! placement and the second pick). Out while it carries, the Mega's own watchdog stops the
@@ -24,11 +24,11 @@ use std::path::Path;
 use std::time::Duration;
 
 use common::{Spawned, TempDir, one_at_a_time, read, serve};
-use ratf_core::runtime::{DeviceKind, Input, Outputs};
+use ratf_core::runtime::{DeviceKind, Input, MAGNET_OFF_AFTER_US, Outputs};
 use ratf_host::recording::Recording;
 
 /// The magnet's grace after the wheels stop, plus one 50 Hz tick, µs.
-const MAGNET_GRACE_US: u64 = 100_000 + 20_000;
+const MAGNET_GRACE_US: u64 = MAGNET_OFF_AFTER_US + 20_000;
 
 /// What the recording shows of the device's absences.
 #[derive(Debug, Default)]

@@ -3,7 +3,8 @@
 //!
 //! Per world step (1 ms): bytes that arrived from the Mega go through the core's
 //! [`MegaLink`], bytes from the lidar through its [`X4Driver`], and the IMU is read through
-//! its driver at 200 Hz on the simulated I2C bus; then, on the host's own 50 Hz timer
+//! its driver at 200 Hz on the simulated I2C bus (a lidar stream silent for
+//! [`LIDAR_PACKET_SILENCE_US`] reported as `ratf run`'s lidar thread does); then, on the host's own 50 Hz timer
 //! (offset from the Mega's tick by [`HOST_TICK_PHASE_US`], as two free-running clocks would
 //! be), a [`Input::HostTick`]. The inputs of one step are handed out in that order; the
 //! world steps again only when they are all consumed ([`SimDevices::step_complete`]).
@@ -18,7 +19,10 @@ use ratf_core::drivers::mega_link::{MegaEvent, MegaLink, MegaLinkConfig};
 use ratf_core::drivers::x4::X4Driver;
 use ratf_core::drivers::x4::scan::ScanConfig;
 use ratf_core::rng::SimRng;
-use ratf_core::runtime::{Devices, Input, LidarCommand, Outputs, Stamped, Timestamp};
+use ratf_core::runtime::{
+    DeviceKind, Devices, Input, LIDAR_PACKET_SILENCE_US, LidarCommand, Outputs, PacketWatch,
+    Stamped, Timestamp,
+};
 
 use crate::world::{Scenario, SimImuBus, World};
 
@@ -36,6 +40,7 @@ pub struct SimDevices {
     world: World,
     mega: MegaLink,
     lidar: X4Driver,
+    lidar_watch: PacketWatch,
     imu: Mpu9255<SimImuBus>,
     imu_yaw_rad: f64,
     next_host_tick_us: u64,
@@ -64,6 +69,7 @@ impl SimDevices {
                 range_max_m: config.lidar.max_range_m,
                 ..ScanConfig::default()
             }),
+            lidar_watch: PacketWatch::new(LIDAR_PACKET_SILENCE_US),
             imu,
             imu_yaw_rad: config.robot.imu.yaw_deg.to_radians(),
             next_host_tick_us: HOST_TICK_PHASE_US,
@@ -167,6 +173,19 @@ impl SimDevices {
                 pending.push_back(Stamped::new(time, Input::Scan(scan)));
             }
         });
+        // As `ratf run`'s lidar thread: a stream that stopped is reported long before two
+        // revolutions are missed.
+        if self
+            .lidar_watch
+            .fell_silent(self.lidar.last_packet_us(), now_us)
+        {
+            let fault = Input::DeviceFault {
+                device: DeviceKind::Lidar,
+                message: self.lidar_watch.message("the simulated X4"),
+                reconnecting: true,
+            };
+            self.pending.push_back(Stamped::new(time, fault));
+        }
         if now_us >= self.next_imu_us {
             // A failed read is skipped, as `ratf run`'s IMU thread does: the core just gets
             // no sample.

@@ -4,7 +4,7 @@ use ratf_core::config::{Config, WorldProfile};
 use ratf_core::field::geometry::Pose2;
 use ratf_core::field::{Field, PartColor};
 use ratf_core::kinematics::{BodyTwist, Mecanum};
-use ratf_core::runtime::{Input, LidarCommand, Outputs, WheelCommand};
+use ratf_core::runtime::{DeviceKind, Input, LidarCommand, Outputs, WheelCommand};
 
 use crate::devices::SimDevices;
 use crate::faults::{FaultEvent, FaultInjector, FaultKind, FaultPlan, ServerFault};
@@ -111,9 +111,42 @@ fn during_a_lidar_dropout_the_scans_have_no_points_and_after_it_they_do() {
 fn a_lidar_gone_for_good_sends_no_scan_again() {
     let mut devices = devices();
     let mut injector = FaultInjector::new(plan(FaultKind::LidarGone, 1_000, None, 1), vec![]);
-    let scans = scans(&run(&mut devices, &mut injector, 3_000, false));
+    let inputs = run(&mut devices, &mut injector, 3_000, false);
+    let scans = scans(&inputs);
     assert!(scans.iter().any(|(t, _)| *t < 1_000));
     assert!(scans.iter().all(|(t, _)| *t <= 1_000), "{scans:?}");
+    // Its device reports the stream stopped 50 ms after the last packet (one every 8 ms),
+    // once, as `ratf run`'s lidar thread does.
+    let faults: Vec<u64> = inputs
+        .iter()
+        .filter(|(_, i)| {
+            matches!(
+                i,
+                Input::DeviceFault {
+                    device: DeviceKind::Lidar,
+                    reconnecting: true,
+                    ..
+                }
+            )
+        })
+        .map(|(t, _)| *t)
+        .collect();
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    assert!((1_043..=1_051).contains(&faults[0]), "{faults:?}");
+}
+
+#[test]
+fn a_lidar_dropout_keeps_its_packets_flowing_and_reports_no_fault() {
+    let mut devices = devices();
+    let mut injector =
+        FaultInjector::new(plan(FaultKind::LidarDropout, 1_000, Some(2_000), 1), vec![]);
+    let inputs = run(&mut devices, &mut injector, 3_000, false);
+    assert!(
+        !inputs
+            .iter()
+            .any(|(_, i)| matches!(i, Input::DeviceFault { .. })),
+        "empty revolutions are the core's to judge"
+    );
 }
 
 #[test]

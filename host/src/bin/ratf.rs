@@ -1769,7 +1769,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
     println!(
         "time lost: mean against the fault-free run of the same seed, over runs where both \
          scored fully; coll.: collisions with the fault / in the fault-free runs; unsafe: host ticks driving (wheels or magnet) more than 150 ms after \
-         a stop fault became knowable (2 lidar revolutions, 3 Mega periods); stop ms: from \
+         a stop fault became knowable (50 ms without a lidar packet, 3 Mega periods); stop ms: from \
          the fault itself to the last driving tick, worst run; {:.1} s wall",
         started.elapsed().as_secs_f64()
     );

@@ -16,6 +16,10 @@
 //! - **Spin-up**: after the start command the X4 may stay silent while its motor comes up
 //!   to speed; if no revolution arrives within `[link] lidar_spinup_timeout_ms` (or the
 //!   stream stops that long), the port is reopened and the command sent again.
+//! - **A stream that stops**: packets silent for [`LIDAR_PACKET_SILENCE_US`] (an X4 that
+//!   stopped sending with its port open) are reported as [`Input::DeviceFault`] with
+//!   `reconnecting`, so the core holds the robot at once, not two revolutions later; the
+//!   port is reopened only after the spin-up timeout below.
 //! - **Reconnection**: a read error or a vanished port reports [`Input::DeviceFault`] with
 //!   `reconnecting` (the core holds the robot still until scans come again), and
 //!   the thread reopens the port every `[link] reconnect_period_ms`, sending the start
@@ -31,7 +35,7 @@ use std::time::{Duration, Instant};
 use ratf_core::drivers::x4::info::{DeviceInfo, Health, HealthStatus, Reply, ReplyParser, Request};
 use ratf_core::drivers::x4::scan::ScanConfig;
 use ratf_core::drivers::x4::{Command, X4Driver};
-use ratf_core::runtime::{DeviceKind, Input, Stamped};
+use ratf_core::runtime::{DeviceKind, Input, LIDAR_PACKET_SILENCE_US, PacketWatch, Stamped};
 use serialport::SerialPort;
 
 use super::mega::open_port;
@@ -247,6 +251,7 @@ fn session(
     shared: &Shared,
 ) -> (String, bool) {
     let mut driver = X4Driver::new(settings.scan);
+    let mut packets = PacketWatch::new(LIDAR_PACKET_SILENCE_US);
     match port.try_clone() {
         Ok(clone) => handle.install(Some(clone)),
         Err(e) => return (format!("cannot share the port: {e}"), false),
@@ -305,6 +310,18 @@ fn session(
             }
             Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::Interrupted) => {}
             Err(e) => return (format!("read failed: {e}"), delivered),
+        }
+        // Checked after feeding what was read: a thread late to read finds the packets that
+        // waited for it and reports nothing.
+        if packets.fell_silent(driver.last_packet_us(), clock.now().as_us()) {
+            let fault = Input::DeviceFault {
+                device: DeviceKind::Lidar,
+                message: packets.message(&settings.port),
+                reconnecting: true,
+            };
+            if !report(tx, Message::Input(Stamped::new(clock.now(), fault))) {
+                return ("the loop ended".to_owned(), delivered);
+            }
         }
         if let Some(started) = started_at {
             let silent_since = last_scan.unwrap_or(started).max(started);

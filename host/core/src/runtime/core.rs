@@ -305,7 +305,7 @@ mod tests {
     use super::*;
     use crate::field::{Field, PartColor};
     use crate::referee::protocol::Request;
-    use crate::runtime::DeviceKind;
+    use crate::runtime::{DeviceKind, MAGNET_OFF_AFTER_US};
 
     const BLUE: Option<PartColor> = Some(PartColor::Blue);
 
@@ -487,9 +487,9 @@ mod tests {
 
     /// Issue 17, a USB unplug and replug: a device whose thread reports its port lost and
     /// reopens it held the robot for good (an operator stop nobody lifts in `ratf run`).
-    /// Now the robot holds still from the fault (wheels at the next tick, the magnet 100 ms
-    /// later) until the device speaks again, then the mission drives on; the Mega is back
-    /// with its telemetry, not its reset frame alone.
+    /// Now the robot holds still from the fault (wheels at the next tick, the magnet
+    /// [`MAGNET_OFF_AFTER_US`] later) until the device speaks again, then the mission drives
+    /// on; the Mega is back with its telemetry, not its reset frame alone.
     #[test]
     fn a_lost_port_holds_the_robot_until_its_device_speaks_again() {
         for lost in [DeviceKind::Mega, DeviceKind::Lidar] {
@@ -680,8 +680,8 @@ mod tests {
     /// Issue 17: a lidar or a Mega that stops sending while plugged in (or a lidar whose
     /// revolutions come empty) reached the core only as silence, and the core drove on
     /// (blind, on odometry) until a device thread gave up seconds later, or for ever in the
-    /// simulator. Now it holds still, magnet off, within the guard's limit, one tick and the
-    /// magnet's 100 ms, and goes on when the data flows again.
+    /// simulator. Now it holds still, magnet off, within the guard's limit, one tick and
+    /// [`MAGNET_OFF_AFTER_US`], and goes on when the data flows again.
     #[test]
     fn a_silent_lidar_or_mega_holds_the_robot_until_it_speaks_again() {
         for (silent, empty) in [
@@ -723,7 +723,7 @@ mod tests {
                         ms + 4 - last_ms
                     );
                 }
-                if ms + 4 > last_ms + limit_ms + 20 + 100 {
+                if ms + 4 > last_ms + limit_ms + 20 + MAGNET_OFF_AFTER_US / 1_000 {
                     assert!(
                         !moving(&out) && !wheels.solenoid_on,
                         "{silent}: drove {} ms after its last data",

@@ -1,7 +1,8 @@
 //! A YDLIDAR X4 on the far side of a pseudo-terminal, built on the simulator's packet
 //! encoder: silent until its start command `A5 60`, then the response descriptor and one
-//! revolution every 1/7 s (360 samples, 40 per packet), trickled at the line's 128 000 baud
-//! (13 bytes a millisecond), so the host reads packets in pieces; quiet again at `A5 65`.
+//! revolution every 1/7 s (360 samples, 40 per packet), trickled over the revolution (6 bytes
+//! a millisecond), so the host reads packets in pieces; quiet again at `A5 65`, or when told
+//! to fall silent with its port open ([`FakeX4::fall_silent`]).
 //! It can damage its stream: a bad check code in every other revolution, a stream that
 //! starts in the middle of a packet, or no answer at all. Unplugged, it loses power: silent
 //! again until the next start command. It answers the device-information and health
@@ -23,8 +24,11 @@ pub(crate) const SAMPLES: usize = 360;
 pub(crate) const PER_PACKET: usize = 40;
 /// A revolution's period (7 Hz).
 const REVOLUTION: Duration = Duration::from_micros(142_857);
-/// Bytes on the line per millisecond at 128 000 baud, 8N1.
-const BYTES_PER_MS: usize = 13;
+/// Bytes written per millisecond: 6, so a revolution's 822 bytes take 137 of its 143 ms, as
+/// a real X4 sends each packet as soon as its samples are taken (40 samples at 5 kHz, 8 ms)
+/// rather than in one burst (the line itself carries 13 bytes a millisecond at 128 000
+/// baud, 8N1). A burst and a pause of 80 ms would look like a stream that stopped.
+const BYTES_PER_MS: usize = 6;
 /// Bytes of the start-of-revolution packet (header and one sample).
 const ZERO_PACKET_LEN: usize = 12;
 /// Bytes of a full data packet.
@@ -104,6 +108,13 @@ impl FakeX4 {
             .iter()
             .filter(|(_, c)| *c == Command::StartScan)
             .count()
+    }
+
+    /// Stop sending for good with the port open, as an X4 whose motor stalled or whose
+    /// board hung: a start command wakes it again.
+    pub(crate) fn fall_silent(&mut self) {
+        self.streaming = false;
+        self.outbox.clear();
     }
 
     /// Be the X4 until `until`.

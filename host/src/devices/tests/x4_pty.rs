@@ -1,6 +1,7 @@
 //! The lidar's device thread over a pseudo-terminal against an emulated X4: check-code
 //! errors, packets read in pieces, a stream starting mid-packet, a lidar that never answers,
-//! the device information and health asked before the scan (answered, ignored, an error).
+//! the device information and health asked before the scan (answered, ignored, an error), a
+//! lidar that stops sending with its port open.
 
 use std::sync::mpsc::Receiver;
 use std::thread::JoinHandle;
@@ -341,6 +342,50 @@ fn an_unplugged_lidar_is_reopened_and_started_again() {
         ]
     );
     assert!(bench.gone().is_none());
+}
+
+#[test]
+fn a_lidar_that_stops_sending_with_its_port_open_is_reported_before_a_revolution_is_missed() {
+    let spinup = Duration::from_secs(2);
+    let mut bench = LidarBench::start(
+        "x4-stops",
+        Fault::CorruptOddRevolutions,
+        spinup,
+        Duration::from_secs(10),
+    );
+    let port = bench.x4.pty.path();
+    bench.handle.start_scan();
+    bench.wait_for(Duration::from_secs(5), "scans", |b| b.scans().len() >= 2);
+    assert_eq!(
+        bench.faults(),
+        Vec::<&str>::new(),
+        "a stream paced as an X4's"
+    );
+    bench.x4.fall_silent();
+    let silent_at = Instant::now();
+    bench.wait_for(Duration::from_secs(1), "a fault", |b| {
+        !b.faults().is_empty()
+    });
+    assert_eq!(
+        bench.faults(),
+        [format!("{port}: no packet for 50 ms; holding until it streams again").as_str()]
+    );
+    assert!(
+        silent_at.elapsed() < spinup,
+        "reported by the packets' watch, not by the spin-up timeout's reopening"
+    );
+    assert_eq!(
+        bench.links().last(),
+        Some(&LinkState::Up),
+        "the port stays open"
+    );
+    assert!(
+        bench.messages.iter().any(|(_, m)| matches!(
+            m,
+            Message::Input(s) if matches!(s.input, Input::DeviceFault { reconnecting: true, .. })
+        )),
+        "the core holds the robot until the lidar speaks again"
+    );
 }
 
 /// What the thread sends before the scan: stop, device information, health, start.

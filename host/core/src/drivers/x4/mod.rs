@@ -118,6 +118,7 @@ impl CommandDecoder {
 pub struct X4Driver {
     parser: PacketParser,
     assembler: ScanAssembler,
+    last_packet_us: Option<u64>,
 }
 
 impl X4Driver {
@@ -126,20 +127,29 @@ impl X4Driver {
         Self {
             parser: PacketParser::new(),
             assembler: ScanAssembler::new(config),
+            last_packet_us: None,
         }
     }
 
     /// Feed bytes received at `now_us`; `on_scan` gets every completed revolution.
     pub fn feed(&mut self, bytes: &[u8], now_us: u64, mut on_scan: impl FnMut(Scan)) {
         let assembler = &mut self.assembler;
+        let last_packet_us = &mut self.last_packet_us;
         self.parser.feed(bytes, |event| match event {
             Event::Packet(packet) => {
+                *last_packet_us = Some(now_us);
                 if let Some(scan) = assembler.push(packet, now_us) {
                     on_scan(scan);
                 }
             }
             Event::ChecksumError => assembler.packet_dropped(),
         });
+    }
+
+    /// When the last packet with a valid check code was received, µs (`None`: none yet):
+    /// the stream's liveness, finer than revolutions ([`crate::runtime::PacketWatch`]).
+    pub const fn last_packet_us(&self) -> Option<u64> {
+        self.last_packet_us
     }
 
     /// Parser counters (packets, check-code errors, skipped bytes).
@@ -296,6 +306,29 @@ mod tests {
         assert_eq!(scans[0].packets_dropped, 1);
         assert_eq!(driver.stats().checksum_errors, 1);
         assert_eq!(driver.stats().response_headers, 1);
+    }
+
+    #[test]
+    fn the_last_packet_time_moves_with_valid_packets_only() {
+        let encoder = RevolutionEncoder {
+            samples_per_packet: 10,
+            scan_frequency_hz: 7.0,
+        };
+        let bytes = stream(&encoder, 1.0, &[1000.0; 30]);
+        let mut driver = X4Driver::new(ScanConfig::default());
+        assert_eq!(driver.last_packet_us(), None);
+        driver.feed(&bytes, 7_000, |_| {});
+        assert_eq!(driver.last_packet_us(), Some(7_000));
+        driver.feed(&[0x55; 64], 9_000, |_| {});
+        assert_eq!(driver.last_packet_us(), Some(7_000), "garbage is no packet");
+        let mut corrupted = bytes[RESPONSE_HEADER.len()..RESPONSE_HEADER.len() + 12].to_vec();
+        corrupted[11] ^= 0x10;
+        driver.feed(&corrupted, 11_000, |_| {});
+        assert_eq!(
+            driver.last_packet_us(),
+            Some(7_000),
+            "nor is a corrupted one"
+        );
     }
 
     /// Stamp error of the time model (scan.rs) against known acquisition times: packets
