@@ -24,6 +24,7 @@ use ratf_core::runtime::{
     Stamped, Timestamp,
 };
 
+use crate::faults::MEGA_BOOT_US;
 use crate::world::{Scenario, SimImuBus, World};
 
 /// Period of the host's reference timer, µs (50 Hz, the Mega's control rate).
@@ -34,13 +35,36 @@ pub const HOST_TICK_PHASE_US: u64 = 7_000;
 /// IMU read period, µs (200 Hz, the rate the driver configures).
 pub const IMU_PERIOD_US: u64 = 5_000;
 
+/// A device's USB cable, as its thread in `ratf run` lives an unplug and replug
+/// ([`SimDevices::unplug`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Cable {
+    In,
+    /// Out since `since_us`: the thread tries to reopen the port every
+    /// `[link] reconnect_period_ms` from then.
+    Out {
+        since_us: u64,
+    },
+    /// Back in; the thread's next try, at `reopen_us`, opens the port.
+    Back {
+        reopen_us: u64,
+    },
+}
+
 /// The simulated robot's devices.
 #[derive(Debug)]
 pub struct SimDevices {
     world: World,
     mega: MegaLink,
     lidar: X4Driver,
+    lidar_scan: ScanConfig,
     lidar_watch: PacketWatch,
+    mega_cable: Cable,
+    /// False from a reopening of the Mega's port until its `r`: as `ratf run`'s thread, the
+    /// telemetry before it was sent before the reset and is dropped, and nothing is written.
+    mega_synced: bool,
+    lidar_cable: Cable,
+    reconnect_period_us: u64,
     imu: Mpu9255<SimImuBus>,
     imu_yaw_rad: f64,
     next_host_tick_us: u64,
@@ -57,6 +81,11 @@ impl SimDevices {
     /// Build the world of `scenario` and the device drivers of `config`.
     pub fn new(config: &Config, scenario: &Scenario) -> Result<Self, ImuError> {
         let world = World::new(config, scenario);
+        let lidar_scan = ScanConfig {
+            range_min_m: config.lidar.min_range_m,
+            range_max_m: config.lidar.max_range_m,
+            ..ScanConfig::default()
+        };
         let imu = Mpu9255::new(world.imu_bus(), config.robot.imu.driver_config())?;
         Ok(Self {
             mega: MegaLink::new(MegaLinkConfig {
@@ -64,12 +93,13 @@ impl SimDevices {
                 baud: config.link.mega_baud,
                 telemetry_latency_us: config.mega.telemetry_latency_us,
             }),
-            lidar: X4Driver::new(ScanConfig {
-                range_min_m: config.lidar.min_range_m,
-                range_max_m: config.lidar.max_range_m,
-                ..ScanConfig::default()
-            }),
+            lidar: X4Driver::new(lidar_scan),
+            lidar_scan,
             lidar_watch: PacketWatch::new(LIDAR_PACKET_SILENCE_US),
+            mega_cable: Cable::In,
+            mega_synced: true,
+            lidar_cable: Cable::In,
+            reconnect_period_us: u64::from(config.link.reconnect_period_ms.max(1)) * 1_000,
             imu,
             imu_yaw_rad: config.robot.imu.yaw_deg.to_radians(),
             next_host_tick_us: HOST_TICK_PHASE_US,
@@ -111,6 +141,65 @@ impl SimDevices {
         self.lidar_cut = cut;
     }
 
+    /// Fault injection: `device`'s USB cable comes out now (the Mega or the lidar; false for
+    /// the others). As `ratf sim --serve-pty --unplug` does it to `ratf run`: its thread
+    /// reports the port lost ([`Input::DeviceFault`] with `reconnecting`), nothing passes
+    /// either way, the Mega runs on from the battery (its watchdog stops the wheels without
+    /// the host's references) and the X4 stops.
+    pub fn unplug(&mut self, device: DeviceKind) -> bool {
+        let now_us = self.now_us();
+        let (cable, name) = match device {
+            DeviceKind::Mega => (&mut self.mega_cable, "the simulated Mega"),
+            DeviceKind::Lidar => (&mut self.lidar_cable, "the simulated X4"),
+            DeviceKind::Imu | DeviceKind::Referee => return false,
+        };
+        *cable = Cable::Out { since_us: now_us };
+        let fault = Input::DeviceFault {
+            device,
+            message: format!("{name}'s port: unplugged; reconnecting"),
+            reconnecting: true,
+        };
+        self.pending
+            .push_back(Stamped::new(Timestamp::from_us(now_us), fault));
+        true
+    }
+
+    /// Fault injection: `device`'s cable goes back in now. Its thread opens the port at its
+    /// next try (every `[link] reconnect_period_ms` from the unplug) with a fresh driver;
+    /// opening the Mega's port resets the board (DTR), which is back [`MEGA_BOOT_US`] later;
+    /// the lidar's thread sends the start command again if the core had asked for scans.
+    pub fn replug(&mut self, device: DeviceKind) {
+        let now_us = self.now_us();
+        let period_us = self.reconnect_period_us;
+        let cable = match device {
+            DeviceKind::Mega => &mut self.mega_cable,
+            DeviceKind::Lidar => &mut self.lidar_cable,
+            DeviceKind::Imu | DeviceKind::Referee => return,
+        };
+        if let Cable::Out { since_us } = *cable {
+            let tries = (now_us - since_us).div_ceil(period_us).max(1);
+            *cable = Cable::Back {
+                reopen_us: since_us + tries * period_us,
+            };
+        }
+    }
+
+    /// Ports the threads reopen at `now_us`.
+    fn reopen_ports(&mut self, now_us: u64) {
+        let due = |cable: Cable| matches!(cable, Cable::Back { reopen_us } if now_us >= reopen_us);
+        if due(self.mega_cable) {
+            self.mega_cable = Cable::In;
+            self.mega_synced = false;
+            self.mega.reset();
+            self.world.reset_mega(Some(MEGA_BOOT_US));
+        }
+        if due(self.lidar_cable) {
+            self.lidar_cable = Cable::In;
+            self.lidar = X4Driver::new(self.lidar_scan);
+            self.lidar_watch = PacketWatch::new(LIDAR_PACKET_SILENCE_US);
+        }
+    }
+
     /// IMU reads that failed so far (skipped, as the robot's IMU thread does).
     pub fn imu_failures(&self) -> u32 {
         self.imu_failures
@@ -150,18 +239,27 @@ impl SimDevices {
         self.world.step();
         let now_us = self.world.now_us();
         let time = Timestamp::from_us(now_us);
+        self.reopen_ports(now_us);
         let pending = &mut self.pending;
-        let bytes = self.world.receive_from_mega();
+        let mut bytes = self.world.receive_from_mega();
+        if self.mega_cable != Cable::In {
+            bytes.clear();
+        }
+        let synced = &mut self.mega_synced;
         self.mega.feed(&bytes, now_us, |event| {
             let input = match event {
+                MegaEvent::Telemetry(_) if !*synced => return,
                 MegaEvent::Telemetry(telemetry) => Input::Wheels(telemetry),
-                MegaEvent::Reset { .. } => Input::MegaReset,
+                MegaEvent::Reset { .. } => {
+                    *synced = true;
+                    Input::MegaReset
+                }
             };
             pending.push_back(Stamped::new(time, input));
         });
         // The X4's motor spins from power-up, but it sends nothing until told to scan.
         let mut bytes = self.world.receive_from_lidar();
-        if !self.lidar_streaming || self.lidar_cut {
+        if !self.lidar_streaming || self.lidar_cut || self.lidar_cable != Cable::In {
             bytes.clear();
         }
         let scan_drop = &mut self.scan_drop;
@@ -174,10 +272,11 @@ impl SimDevices {
             }
         });
         // As `ratf run`'s lidar thread: a stream that stopped is reported long before two
-        // revolutions are missed.
-        if self
-            .lidar_watch
-            .fell_silent(self.lidar.last_packet_us(), now_us)
+        // revolutions are missed (a lost port is reported as such, not as a silence).
+        if self.lidar_cable == Cable::In
+            && self
+                .lidar_watch
+                .fell_silent(self.lidar.last_packet_us(), now_us)
         {
             let fault = Input::DeviceFault {
                 device: DeviceKind::Lidar,
@@ -215,6 +314,8 @@ impl SimDevices {
         // The core's references are finite by construction (limited inverse kinematics of a
         // finite twist); a non-finite one is a bug upstream and is not sent.
         if let Some(wheels) = outputs.wheels
+            && self.mega_cable == Cable::In
+            && self.mega_synced
             && let Ok(bytes) = wheels.encode(&mut self.mega)
         {
             self.world.send_to_mega(&bytes);

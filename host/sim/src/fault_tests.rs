@@ -279,6 +279,70 @@ fn a_mega_reset_goes_silent_then_reboots_and_a_gone_mega_never_speaks_again() {
     }
 }
 
+/// The times of `inputs` that `keep` picks.
+fn times(inputs: &[(u64, Input)], keep: impl Fn(&Input) -> bool) -> Vec<u64> {
+    inputs
+        .iter()
+        .filter(|(_, i)| keep(i))
+        .map(|(t, _)| *t)
+        .collect()
+}
+
+#[test]
+fn an_unplugged_mega_is_reported_then_reopened_at_the_threads_next_try_and_reset() {
+    let mut devices = devices();
+    // Out from 1.0 s to 1.7 s; the thread tries every 500 ms from the unplug: it reopens
+    // the port at 2.0 s, which resets the board, back 0.5 s later.
+    let mut injector =
+        FaultInjector::new(plan(FaultKind::MegaReplug, 1_000, Some(1_700), 8), vec![]);
+    let inputs = run(&mut devices, &mut injector, 3_000, true);
+    let faults = times(&inputs, |i| {
+        matches!(
+            i,
+            Input::DeviceFault {
+                device: DeviceKind::Mega,
+                reconnecting: true,
+                ..
+            }
+        )
+    });
+    assert_eq!(faults, [1_000]);
+    let telemetry = times(&inputs, |i| matches!(i, Input::Wheels(_)));
+    assert!(telemetry.iter().any(|t| *t < 1_000));
+    assert!(
+        !telemetry.iter().any(|t| (1_001..2_500).contains(t)),
+        "nothing passes the cable, nor before the reset board boots: {telemetry:?}"
+    );
+    assert!(telemetry.iter().any(|t| *t > 2_500), "{telemetry:?}");
+    let resets = times(&inputs, |i| matches!(i, Input::MegaReset));
+    assert_eq!(
+        resets.len(),
+        2,
+        "boot, and the reset of the reopening: {resets:?}"
+    );
+    assert!((2_500..2_520).contains(&resets[1]), "{resets:?}");
+}
+
+#[test]
+fn an_unplugged_lidar_is_reported_once_then_streams_again_after_its_port_is_reopened() {
+    let mut devices = devices();
+    let mut injector =
+        FaultInjector::new(plan(FaultKind::LidarReplug, 1_000, Some(1_200), 9), vec![]);
+    let inputs = run(&mut devices, &mut injector, 3_000, false);
+    let faults = times(&inputs, |i| matches!(i, Input::DeviceFault { .. }));
+    assert_eq!(faults, [1_000], "the lost port, not a silence too");
+    let scans = scans(&inputs);
+    assert!(scans.iter().any(|(t, _)| *t < 1_000));
+    assert!(
+        !scans.iter().any(|(t, _)| (1_001..1_500).contains(t)),
+        "nothing until the thread's next try at 1.5 s: {scans:?}"
+    );
+    assert!(
+        scans.iter().filter(|(t, n)| *t > 1_500 && *n > 50).count() >= 5,
+        "{scans:?}"
+    );
+}
+
 #[test]
 fn serial_garbage_reaches_the_megas_line() {
     let mut devices = devices();

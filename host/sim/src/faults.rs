@@ -11,6 +11,7 @@
 
 use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::rng::SimRng;
+use ratf_core::runtime::DeviceKind;
 
 use crate::devices::SimDevices;
 use crate::lidar::{Solid, person};
@@ -43,6 +44,12 @@ pub enum FaultKind {
     SerialGarbage,
     /// The Mega resets and is back 0.5 s later.
     MegaReset,
+    /// The Mega's USB cable is out for 0.5–2 s ([`SimDevices::unplug`]): its port is lost,
+    /// then reopened at the thread's next try, which resets the board.
+    MegaReplug,
+    /// The lidar's USB cable is out for 0.5–2 s: its port is lost, the X4 stops, then the
+    /// port is reopened at the thread's next try and the X4 started again.
+    LidarReplug,
     /// Every IMU read fails from the fault on.
     ImuFailure,
     /// The lidar stops sending for good (its port stays open).
@@ -53,7 +60,7 @@ pub enum FaultKind {
 
 impl FaultKind {
     /// Every kind, in the order the bench reports them.
-    pub const ALL: [Self; 14] = [
+    pub const ALL: [Self; 16] = [
         Self::LidarDropout,
         Self::Person,
         Self::WheelSlip,
@@ -65,6 +72,8 @@ impl FaultKind {
         Self::ServerGarbage,
         Self::SerialGarbage,
         Self::MegaReset,
+        Self::MegaReplug,
+        Self::LidarReplug,
         Self::ImuFailure,
         Self::LidarGone,
         Self::MegaGone,
@@ -84,6 +93,8 @@ impl FaultKind {
             Self::ServerGarbage => "server_garbage",
             Self::SerialGarbage => "serial_garbage",
             Self::MegaReset => "mega_reset",
+            Self::MegaReplug => "mega_replug",
+            Self::LidarReplug => "lidar_replug",
             Self::ImuFailure => "imu_failure",
             Self::LidarGone => "lidar_gone",
             Self::MegaGone => "mega_gone",
@@ -187,6 +198,9 @@ impl FaultPlan {
                     | FaultKind::ServerDuplicate
                     | FaultKind::ServerGarbage => start_us + s(&mut rng, 2.0, 8.0),
                     FaultKind::MegaReset => start_us + MEGA_BOOT_US,
+                    FaultKind::MegaReplug | FaultKind::LidarReplug => {
+                        start_us + s(&mut rng, 0.5, 2.0)
+                    }
                     FaultKind::PartSlip => u64::MAX,
                     FaultKind::ImuFailure | FaultKind::LidarGone | FaultKind::MegaGone => u64::MAX,
                     FaultKind::PartKnocked | FaultKind::SerialGarbage => start_us,
@@ -387,6 +401,12 @@ impl FaultInjector {
             FaultKind::MegaGone if first => world.reset_mega(None),
             FaultKind::ImuFailure if first => world.fail_imu(true),
             FaultKind::LidarGone if first => sim.cut_lidar(true),
+            FaultKind::MegaReplug if first => {
+                sim.unplug(DeviceKind::Mega);
+            }
+            FaultKind::LidarReplug if first => {
+                sim.unplug(DeviceKind::Lidar);
+            }
             _ => {}
         }
         if first && !matches!(event.kind, FaultKind::PartSlip | FaultKind::PartKnocked) {
@@ -401,6 +421,8 @@ impl FaultInjector {
             FaultKind::LidarDropout => world.lidar_mut().enabled = true,
             FaultKind::Person => world.set_clutter(&self.base_clutter),
             FaultKind::WheelSlip => world.set_grip(1.0),
+            FaultKind::MegaReplug => sim.replug(DeviceKind::Mega),
+            FaultKind::LidarReplug => sim.replug(DeviceKind::Lidar),
             _ => {}
         }
     }

@@ -207,9 +207,11 @@ mod tests {
         }
     }
 
-    /// Recoverable faults at seed 1 of round 1: the robot still scores fully.
+    /// Recoverable faults at seed 1 of round 1 (a USB cable out for 1.5 s among them): the
+    /// robot still scores fully.
     #[test]
-    fn through_a_lidar_dropout_a_mega_reset_or_a_silent_server_round_1_still_scores_fully() {
+    fn through_a_lidar_dropout_a_mega_reset_a_replug_or_a_silent_server_round_1_still_scores_fully()
+    {
         let config = realistic();
         let options = RoundOptions::new(1, 1, Policy::Ours);
         for (kind, duration_s) in [
@@ -217,6 +219,8 @@ mod tests {
             (FaultKind::MegaReset, 0.5),
             (FaultKind::ServerSilent, 5.0),
             (FaultKind::ImuFailure, 30.0),
+            (FaultKind::MegaReplug, 1.5),
+            (FaultKind::LidarReplug, 1.5),
         ] {
             let plan = one(kind, 8.0, Some(duration_s));
             let (report, outcome) = run_faulted(
