@@ -38,6 +38,11 @@ pub struct StepInput {
     /// ∫ gyro z dt over the step, rad, bias not removed; `None` when the gyro had no fresh
     /// data.
     pub gyro_dtheta_rad: Option<f64>,
+    /// `Some(σ)` when the wheels sent nothing over the step (a gap in the Mega's telemetry
+    /// the gyro bridges, [`super::Localiser`]): `increment` is no measurement, the robot's
+    /// translation is unknown with this standard deviation per axis, m, and the step can
+    /// neither learn the gyro's bias nor call a disagreement slip.
+    pub unmeasured_translation_std_m: Option<f64>,
 }
 
 /// What the prediction noticed about a step.
@@ -137,7 +142,8 @@ impl EkfState {
         } else {
             f64::INFINITY
         };
-        let wheels_still = distance_m == 0.0 && inc.dtheta_rad == 0.0;
+        let measured = input.unmeasured_translation_std_m.is_none();
+        let wheels_still = measured && distance_m == 0.0 && inc.dtheta_rad == 0.0;
         let (dtheta, heading_var) = match input.gyro_dtheta_rad {
             Some(raw) if dt > 0.0 => {
                 let rate = raw / dt - bias;
@@ -151,7 +157,8 @@ impl EkfState {
                 } else {
                     let gyro_dtheta = raw - bias * dt;
                     f[(THETA, BIAS)] = -dt;
-                    outcome.slip = (gyro_dtheta - inc.dtheta_rad).abs() > config.slip_threshold_rad;
+                    outcome.slip = measured
+                        && (gyro_dtheta - inc.dtheta_rad).abs() > config.slip_threshold_rad;
                     let scale = config.gyro_scale_std * gyro_dtheta;
                     (
                         gyro_dtheta,
@@ -172,6 +179,9 @@ impl EkfState {
             + config.translation_var_m2_per_rad * dtheta.abs();
         if outcome.slip {
             translation_var *= config.slip_translation_var_factor;
+        }
+        if let Some(std_m) = input.unmeasured_translation_std_m {
+            translation_var += std_m * std_m;
         }
         let (s, c) = theta.sin_cos();
         let mut mean = self.mean;
@@ -425,6 +435,7 @@ mod tests {
             dt_s: 0.02,
             increment: BodyIncrement::default(),
             gyro_dtheta_rad: Some(0.02 * 0.02),
+            unmeasured_translation_std_m: None,
         };
         for _ in 0..200 {
             let (next, outcome) = state.predict(&input, &config, 1.75e-4);
@@ -454,6 +465,7 @@ mod tests {
                 dtheta_rad: 0.05,
             },
             gyro_dtheta_rad: Some(0.02 + 0.01 * 0.02),
+            unmeasured_translation_std_m: None,
         };
         let (next, outcome) = state.predict(&input, &config, 1.75e-4);
         assert!(outcome.slip && !outcome.wheel_rotation);

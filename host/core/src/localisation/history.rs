@@ -196,6 +196,7 @@ mod tests {
                 dtheta_rad: 0.0,
             },
             gyro_dtheta_rad: None,
+            unmeasured_translation_std_m: None,
         };
         let predict = |s: &EkfState, i: &StepInput| s.predict(i, &config, 1.75e-4).0;
         let mut h = History::new(state(0.0, 0.0), 0, 8);

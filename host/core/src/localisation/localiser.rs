@@ -17,6 +17,15 @@ use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::{Beacon, Field};
 use crate::odometry::BodyIncrement;
 
+/// Telemetry silent this long is a gap the gyro bridges, µs: 60 ms, three Mega control
+/// periods, the same silence that holds the robot (`runtime::MEGA_SILENCE_PERIODS`).
+pub const ODOMETRY_GAP_US: u64 = 60_000;
+
+/// How long a robot may coast once its Mega stops hearing the host, s: 0.2, the Mega's
+/// 100 ms watchdog on the host's references (after which it brakes) and the motors' 0.1 s
+/// time constant. At 0.6 m/s, 12 cm.
+pub const COAST_S: f64 = 0.2;
+
 /// The beacon EKF with gyro fusion, gating, de-skew and late-scan re-application.
 #[derive(Clone, Debug)]
 pub struct Localiser {
@@ -27,6 +36,10 @@ pub struct Localiser {
     consider: Consider,
     history: History,
     gyro: GyroIntegrator,
+    /// Speed of the last step the wheels measured, m/s (for a gap's coast).
+    measured_speed_m_s: f64,
+    /// The latest step bridges a telemetry gap.
+    bridging: bool,
     health: Health,
 }
 
@@ -57,6 +70,8 @@ impl Localiser {
             consider: Consider::new(config, field.beacons()),
             history: History::new(state, time_us, config.history_steps),
             gyro: GyroIntegrator::new(),
+            measured_speed_m_s: 0.0,
+            bridging: false,
             health,
         }
     }
@@ -97,6 +112,44 @@ impl Localiser {
 
     /// Scan points de-skewed into the lidar frame at `reference` (the pose of the robot
     /// there), each point moved with the predicted motion between its time and then.
+    /// No telemetry for [`ODOMETRY_GAP_US`] by `now_us` (a gyro sample's time): step on to
+    /// half that before `now_us` with the gyro's rotation and an unknown translation (the
+    /// module documentation of [`super`]), leaving room for a batch sampled just before it
+    /// arrives.
+    fn bridge_telemetry_gap(&mut self, now_us: u64) {
+        let latest = *self.history.latest();
+        if now_us < latest.time_us + ODOMETRY_GAP_US {
+            return;
+        }
+        let time_us = now_us - ODOMETRY_GAP_US / 2;
+        let coast_m = if self.bridging {
+            0.0
+        } else {
+            self.measured_speed_m_s * COAST_S
+        };
+        let input = StepInput {
+            dt_s: (time_us - latest.time_us) as f64 * 1e-6,
+            increment: BodyIncrement::default(),
+            gyro_dtheta_rad: self.gyro.angle_between(
+                latest.time_us,
+                time_us,
+                self.config.gyro_max_gap_us,
+            ),
+            unmeasured_translation_std_m: Some(coast_m),
+        };
+        let (state, _) = latest
+            .state
+            .predict(&input, &self.config, self.gyro_noise_density);
+        self.history.push(Step {
+            time_us,
+            input: Some(input),
+            state,
+        });
+        self.bridging = true;
+        self.health.bridged_steps += 1;
+        self.refresh_health();
+    }
+
     fn deskewed_points(&self, scan: &Scan, reference: Pose2) -> Vec<Vec2> {
         let lidar_ref = reference.compose(self.mount);
         scan.points
@@ -451,7 +504,10 @@ impl PoseEstimator for Localiser {
                 time_us,
                 self.config.gyro_max_gap_us,
             ),
+            unmeasured_translation_std_m: None,
         };
+        self.measured_speed_m_s = increment.dx_m.hypot(increment.dy_m) / input.dt_s;
+        self.bridging = false;
         let (state, outcome) = latest
             .state
             .predict(&input, &self.config, self.gyro_noise_density);
@@ -475,6 +531,7 @@ impl PoseEstimator for Localiser {
         if !self.gyro.push(sample.time_us, sample.gyro_rad_s[2]) {
             self.health.inputs_out_of_order += 1;
         }
+        self.bridge_telemetry_gap(sample.time_us);
     }
 
     fn on_scan(&mut self, scan: &Scan) {

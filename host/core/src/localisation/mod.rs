@@ -40,7 +40,15 @@
 //!   `wheel_heading_var_rad2_per_m`·|d|;
 //! - standing still (the encoders report no motion and the gyro agrees within 4σ): the
 //!   pose does not move, no noise is added (P does not balloon while parked, §10.10), and
-//!   the gyro's mean rate is a direct measurement of b.
+//!   the gyro's mean rate is a direct measurement of b;
+//! - **a gap in the telemetry** (none for [`ODOMETRY_GAP_US`]: a Mega that reset, hung or
+//!   lost its cable, while the gyro and the lidar go on): the gyro bridges it in steps
+//!   whose rotation is the gyro's and whose translation is unknown. The robot may still be
+//!   coasting: the first such step adds (v·[`COAST_S`])² per axis, v the speed of the
+//!   last step the wheels measured, and the mean stays (a Mega that comes back without a
+//!   reset reports the motion in its next batch; after a reset, the beacons find it).
+//!   Without it the estimate froze at the last batch while the robot turned on: a Mega
+//!   unplugged in a turn left it 40° behind, and the beacons no longer matched.
 //!
 //! **Beacon update**, per scan, at the scan's acquisition time (see [`Localiser`]): each
 //! point is de-skewed with the predicted pose at its own time into the lidar frame at one
@@ -104,7 +112,7 @@ use crate::drivers::x4::scan::Scan;
 use crate::field::geometry::Pose2;
 use crate::odometry::BodyIncrement;
 
-pub use localiser::Localiser;
+pub use localiser::{COAST_S, Localiser, ODOMETRY_GAP_US};
 pub use original::OriginalFilter;
 
 /// A pose estimator fed with the robot's three inputs, in time order per input.
@@ -175,6 +183,8 @@ pub struct Health {
     pub slip_steps: u64,
     /// Odometry steps rotated by the wheels for want of gyro data.
     pub wheel_rotation_steps: u64,
+    /// Steps that bridged a gap in the telemetry with the gyro alone.
+    pub bridged_steps: u64,
     /// Inputs ignored because they were not after the previous one of their kind.
     pub inputs_out_of_order: u64,
     /// Consecutive scans in which no beacon was applied.
