@@ -83,6 +83,15 @@ fn run_with(
     inputs
 }
 
+/// The times of `inputs` that `keep` picks.
+fn times(inputs: &[(u64, Input)], keep: impl Fn(&Input) -> bool) -> Vec<u64> {
+    inputs
+        .iter()
+        .filter(|(_, i)| keep(i))
+        .map(|(t, _)| *t)
+        .collect()
+}
+
 fn scans(inputs: &[(u64, Input)]) -> Vec<(u64, usize)> {
     inputs
         .iter()
@@ -117,20 +126,16 @@ fn a_lidar_gone_for_good_sends_no_scan_again() {
     assert!(scans.iter().all(|(t, _)| *t <= 1_000), "{scans:?}");
     // Its device reports the stream stopped 50 ms after the last packet (one every 8 ms),
     // once, as `ratf run`'s lidar thread does.
-    let faults: Vec<u64> = inputs
-        .iter()
-        .filter(|(_, i)| {
-            matches!(
-                i,
-                Input::DeviceFault {
-                    device: DeviceKind::Lidar,
-                    reconnecting: true,
-                    ..
-                }
-            )
-        })
-        .map(|(t, _)| *t)
-        .collect();
+    let faults = times(&inputs, |i| {
+        matches!(
+            i,
+            Input::DeviceFault {
+                device: DeviceKind::Lidar,
+                reconnecting: true,
+                ..
+            }
+        )
+    });
     assert_eq!(faults.len(), 1, "{faults:?}");
     assert!((1_043..=1_051).contains(&faults[0]), "{faults:?}");
 }
@@ -248,16 +253,8 @@ fn a_mega_reset_goes_silent_then_reboots_and_a_gone_mega_never_speaks_again() {
         let mut devices = devices();
         let mut injector = FaultInjector::new(plan(kind, 1_000, end_ms, 6), vec![]);
         let inputs = run(&mut devices, &mut injector, 2_500, true);
-        let telemetry: Vec<u64> = inputs
-            .iter()
-            .filter(|(_, i)| matches!(i, Input::Wheels(_)))
-            .map(|(t, _)| *t)
-            .collect();
-        let resets: Vec<u64> = inputs
-            .iter()
-            .filter(|(_, i)| matches!(i, Input::MegaReset))
-            .map(|(t, _)| *t)
-            .collect();
+        let telemetry = times(&inputs, |i| matches!(i, Input::Wheels(_)));
+        let resets = times(&inputs, |i| matches!(i, Input::MegaReset));
         assert!(telemetry.iter().any(|t| *t < 1_000));
         assert!(
             !telemetry.iter().any(|t| (1_015..1_500).contains(t)),
@@ -277,15 +274,6 @@ fn a_mega_reset_goes_silent_then_reboots_and_a_gone_mega_never_speaks_again() {
             }
         }
     }
-}
-
-/// The times of `inputs` that `keep` picks.
-fn times(inputs: &[(u64, Input)], keep: impl Fn(&Input) -> bool) -> Vec<u64> {
-    inputs
-        .iter()
-        .filter(|(_, i)| keep(i))
-        .map(|(t, _)| *t)
-        .collect()
 }
 
 #[test]
