@@ -141,17 +141,17 @@ impl SimDevices {
         self.lidar_cut = cut;
     }
 
-    /// Fault injection: `device`'s USB cable comes out now (the Mega or the lidar; false for
-    /// the others). As `ratf sim --serve-pty --unplug` does it to `ratf run`: its thread
+    /// Fault injection: `device`'s USB cable comes out now (the Mega or the lidar; nothing
+    /// for the others). As `ratf sim --serve-pty --unplug` does it to `ratf run`: its thread
     /// reports the port lost ([`Input::DeviceFault`] with `reconnecting`), nothing passes
     /// either way, the Mega runs on from the battery (its watchdog stops the wheels without
     /// the host's references) and the X4 stops.
-    pub fn unplug(&mut self, device: DeviceKind) -> bool {
+    pub fn unplug(&mut self, device: DeviceKind) {
         let now_us = self.now_us();
         let (cable, name) = match device {
             DeviceKind::Mega => (&mut self.mega_cable, "the simulated Mega"),
             DeviceKind::Lidar => (&mut self.lidar_cable, "the simulated X4"),
-            DeviceKind::Imu | DeviceKind::Referee => return false,
+            DeviceKind::Imu | DeviceKind::Referee => return,
         };
         *cable = Cable::Out { since_us: now_us };
         let fault = Input::DeviceFault {
@@ -161,7 +161,6 @@ impl SimDevices {
         };
         self.pending
             .push_back(Stamped::new(Timestamp::from_us(now_us), fault));
-        true
     }
 
     /// Fault injection: `device`'s cable goes back in now. Its thread opens the port at its

@@ -401,12 +401,8 @@ impl FaultInjector {
             FaultKind::MegaGone if first => world.reset_mega(None),
             FaultKind::ImuFailure if first => world.fail_imu(true),
             FaultKind::LidarGone if first => sim.cut_lidar(true),
-            FaultKind::MegaReplug if first => {
-                sim.unplug(DeviceKind::Mega);
-            }
-            FaultKind::LidarReplug if first => {
-                sim.unplug(DeviceKind::Lidar);
-            }
+            FaultKind::MegaReplug if first => sim.unplug(DeviceKind::Mega),
+            FaultKind::LidarReplug if first => sim.unplug(DeviceKind::Lidar),
             _ => {}
         }
         if first && !matches!(event.kind, FaultKind::PartSlip | FaultKind::PartKnocked) {

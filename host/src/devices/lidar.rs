@@ -313,13 +313,14 @@ fn session(
         }
         // Checked after feeding what was read: a thread late to read finds the packets that
         // waited for it and reports nothing.
-        if packets.fell_silent(driver.last_packet_us(), clock.now().as_us()) {
+        let now = clock.now();
+        if packets.fell_silent(driver.last_packet_us(), now.as_us()) {
             let fault = Input::DeviceFault {
                 device: DeviceKind::Lidar,
                 message: packets.message(&settings.port),
                 reconnecting: true,
             };
-            if !report(tx, Message::Input(Stamped::new(clock.now(), fault))) {
+            if !report(tx, Message::Input(Stamped::new(now, fault))) {
                 return ("the loop ended".to_owned(), delivered);
             }
         }

@@ -110,8 +110,6 @@ impl Localiser {
         pose_covariance(state) + self.consider.pose_covariance(&state.sensitivity)
     }
 
-    /// Scan points de-skewed into the lidar frame at `reference` (the pose of the robot
-    /// there), each point moved with the predicted motion between its time and then.
     /// No telemetry for [`ODOMETRY_GAP_US`] by `now_us` (a gyro sample's time): step on to
     /// half that before `now_us` with the gyro's rotation and an unknown translation (the
     /// module documentation of [`super`]), leaving room for a batch sampled just before it
@@ -150,6 +148,8 @@ impl Localiser {
         self.refresh_health();
     }
 
+    /// Scan points de-skewed into the lidar frame at `reference` (the pose of the robot
+    /// there), each point moved with the predicted motion between its time and then.
     fn deskewed_points(&self, scan: &Scan, reference: Pose2) -> Vec<Vec2> {
         let lidar_ref = reference.compose(self.mount);
         scan.points
