@@ -18,7 +18,7 @@
 //! | taking a given-up part back | arrived at its pick pose: release, back out, report the action failed | let it go where it stands, back out, report the action failed |
 //! | to drop, headed in, no closer for 1 s 3–15 cm short of it | — | jammed (`mission::jam`): back off 3 cm, let the part go and grip it again centred (regripping), at most twice an action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); else it fell off the magnet: look for it (regripping) |
-//! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
+//! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: reverse up to `regrip_backoff_m` along the creep, 1 cm short of the walls behind (`FLOOR_REVERSE_CLEARANCE_M`), and carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch open once 2 cm out (`RELEASE_SEEN_M`): placed, and the next action sets off in the same tick at the reverse's speed (its route leaves the slot straight) | still closed at the reverse's end: report the part as stuck |
 //!
@@ -369,6 +369,13 @@ enum State {
 /// or two).
 const BACK_OUT_CREEP_M_S: f64 = 0.03;
 
+/// The least gap the reverse off a part found on the floor leaves between the body and the
+/// walls, dividers and poles behind, as the estimate has them, m. 0.01: the estimate stands
+/// up to 5 mm off the true pose (4 mm in round 1 at seed 65, where a reverse kept 3 mm off
+/// a divider of machine B by the estimate touched it), and a contact deeper than 2 mm is a
+/// collision.
+const FLOOR_REVERSE_CLEARANCE_M: f64 = 0.01;
+
 /// How far the reverse after a drop must have gone before an open switch confirms the
 /// release, m. 0.02: the switch's lever reaches 5 mm beyond a held plate
 /// (`ratf_sim::parts::Gripper`: 20 mm beyond the front face, the magnet 15 mm), and the
@@ -427,6 +434,14 @@ impl BackOutProfile {
 enum AfterBackOut {
     /// Carry the part to its drop slot.
     Carry(Action),
+    /// Carry a part gripped again off the floor to its drop slot, after reversing `m` along
+    /// the search's last creep: the creep found the part wherever it lay, up to the tips of
+    /// a slot's dividers, and a carry setting off from there turned the part's corner into
+    /// them (round 3, seed 78: 25 s pushing a divider of machine B). `m`: up to
+    /// [`MissionConfig::regrip_backoff_m`], where a look starts, and
+    /// [`FLOOR_REVERSE_CLEARANCE_M`] short of the walls behind ([`FreeSpace::free_reverse_m`]:
+    /// under a machine block the body's back stands 2 cm from the dividers).
+    CarryFromFloor { action: Action, m: f64 },
     /// Approach the pick slot again (attempt `n`).
     Retry(Action, u32),
     /// Check the switch opened, then report the placement.
@@ -444,6 +459,7 @@ impl AfterBackOut {
     fn distance_m(self, config: &MissionConfig) -> f64 {
         match self {
             Self::Reseat(_) => jam::JAMMED_BACK_OUT_M.min(config.back_out_m),
+            Self::CarryFromFloor { m, .. } => m,
             _ => config.back_out_m,
         }
     }
@@ -819,7 +835,16 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             Step::Searching(twist) => twist,
             Step::Found => {
                 events.push(MissionEvent::Regripped);
-                self.carry(action, now_us, pose);
+                let m = self.floor.free_reverse_m(
+                    pose,
+                    self.config.regrip_backoff_m,
+                    FLOOR_REVERSE_CLEARANCE_M,
+                );
+                self.state = State::BackingOut {
+                    from: pose,
+                    then: AfterBackOut::CarryFromFloor { action, m },
+                    since_us: now_us,
+                };
                 BodyTwist::default()
             }
             Step::Lost => {
@@ -951,7 +976,9 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     return BodyTwist::new(-speed, 0.0, 0.0);
                 }
                 match then {
-                    AfterBackOut::Carry(action) => self.carry(action, now_us, pose),
+                    AfterBackOut::Carry(action) | AfterBackOut::CarryFromFloor { action, .. } => {
+                        self.carry(action, now_us, pose)
+                    }
                     AfterBackOut::Reseat(action) => {
                         self.trail.clear();
                         self.trail.push(now_us, pose);
@@ -1098,6 +1125,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::geometry::Rect;
     use crate::planning::shortcuts::Footprint;
 
     /// A navigator that arrives after a fixed number of ticks, docking only if told the part
@@ -1618,6 +1646,80 @@ mod tests {
         assert_eq!(
             m.navigator.goals,
             [(A.pick, true), (A.drop, false), (A.drop, false)]
+        );
+    }
+
+    /// A part found on the floor is carried off after a reverse along the creep that found
+    /// it, up to `regrip_backoff_m` and [`FLOOR_REVERSE_CLEARANCE_M`] short of a wall behind.
+    /// Round 3 at seed 78 (part slip): the carry set off where the part was found, turned
+    /// the part's corner into a divider of machine B, and pushed there for 25 s.
+    #[test]
+    fn a_part_found_on_the_floor_is_reversed_off_before_its_carry_short_of_the_walls_behind() {
+        let body = Footprint {
+            length_m: 0.30,
+            width_m: 0.30,
+            carrying: false,
+        };
+        // Where the part was found, and how far the robot reversed before the carry.
+        // Straight back along its heading.
+        let carry_after_finding = |floor: FreeSpace| {
+            let mut m = mission(vec![A]);
+            m.config.exit_on_route_after_pick = true;
+            m.navigator.extra_ticks = 20;
+            m.floor = floor;
+            let (mut carry_ticks, mut search_from) = (0, None::<Pose2>);
+            let (mut found, mut carried_from) = (None::<Pose2>, None::<Pose2>);
+            let events = run_along(
+                &mut m,
+                |state, magnet, pose| match state {
+                    State::ToPick { .. } | State::Gripping { .. } => true,
+                    State::ToDrop { .. } if search_from.is_some() => {
+                        carried_from.get_or_insert(pose);
+                        magnet
+                    }
+                    State::ToDrop { .. } => {
+                        carry_ticks += 1;
+                        magnet && carry_ticks < 3
+                    }
+                    // The face carried the part on: the switch closes again as the robot stands
+                    // (a search that lines up behind it would meet the wall below).
+                    State::Regripping { .. } => {
+                        search_from.get_or_insert(pose);
+                        true
+                    }
+                    State::BackingOut { .. } if search_from.is_some() => {
+                        found.get_or_insert(pose);
+                        magnet
+                    }
+                    _ => false,
+                },
+                600,
+            );
+            assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
+            assert!(
+                events.contains(&MissionEvent::Placed { slot: A.drop }),
+                "{events:?}"
+            );
+            let (found, carried_from) = (found.unwrap(), carried_from.unwrap());
+            assert!((found.yaw_rad - carried_from.yaw_rad).abs() < 1e-9);
+            (found, found.position().distance(carried_from.position()))
+        };
+        let config = MissionConfig::default();
+        let (found, open_floor_m) = carry_after_finding(FreeSpace::empty(body, LOOK_CLEARANCE_M));
+        assert!(
+            (open_floor_m - config.regrip_backoff_m).abs() < 0.005,
+            "{open_floor_m} m"
+        );
+        // A wall 2 cm behind the body's back: a reverse of 1 cm leaves the clearance.
+        let back_x = found.transform_point(Vec2::new(-0.15, 0.0)).x;
+        let wall = Rect::from_spans(back_x - 0.07, back_x - 0.02, -1.0, 1.0);
+        let (_, walled_m) =
+            carry_after_finding(FreeSpace::with_walls(vec![wall], body, LOOK_CLEARANCE_M));
+        // Up to a millimetre over: the reverse's last 20 ms tick.
+        let room_m = 0.02 - FLOOR_REVERSE_CLEARANCE_M;
+        assert!(
+            (room_m - 0.005..=room_m + 0.001).contains(&walled_m),
+            "{walled_m} m for {room_m} m of room"
         );
     }
 

@@ -103,8 +103,14 @@ impl FreeSpace {
     /// A floor with nothing on it, for tests of logic that must not meet the field's walls.
     #[cfg(test)]
     pub(crate) fn empty(footprint: Footprint, margin_m: f64) -> Self {
+        Self::with_walls(Vec::new(), footprint, margin_m)
+    }
+
+    /// A floor with only `walls` on it, for tests of logic near one wall.
+    #[cfg(test)]
+    pub(crate) fn with_walls(walls: Vec<Rect>, footprint: Footprint, margin_m: f64) -> Self {
         Self {
-            rects: Vec::new(),
+            rects: walls,
             circles: Vec::new(),
             footprint,
             margin_m,
@@ -148,6 +154,25 @@ impl FreeSpace {
         (0..=steps)
             .map(|k| (k as f64 * AHEAD_STEP_M).min(up_to_m.max(0.0)))
             .find(|&d| self.pose_is_free(from.compose(Pose2::new(d, 0.0, 0.0))))
+    }
+
+    /// How far the footprint, grown by `margin_m` instead of the space's margin, can
+    /// reverse straight from `from`, along its heading and holding it, touching nothing on
+    /// the way, m: a multiple of [`AHEAD_STEP_M`] up to `up_to_m`, 0 when `from` itself is
+    /// not free. For a reverse off a part found on the floor, kept short of the walls behind.
+    pub fn free_reverse_m(&self, from: Pose2, up_to_m: f64, margin_m: f64) -> f64 {
+        let up_to_m = up_to_m.max(0.0);
+        let free_at =
+            |d: f64| self.pose_is_free_with(from.compose(Pose2::new(-d, 0.0, 0.0)), margin_m);
+        if !free_at(0.0) {
+            return 0.0;
+        }
+        let steps = (up_to_m / AHEAD_STEP_M).ceil() as usize;
+        (1..=steps)
+            .map(|k| (k as f64 * AHEAD_STEP_M).min(up_to_m))
+            .take_while(|&d| free_at(d))
+            .last()
+            .unwrap_or(0.0)
     }
 
     /// True when the footprint can move from `a` to `b` in a straight line holding each one
@@ -320,6 +345,32 @@ mod tests {
                 }
                 None => {
                     prop_assert!(!free.pose_is_free(from) && !free.pose_is_free(at(up_to_m)));
+                }
+            }
+        }
+
+        /// Every step of a free reverse is free, and the next step is not (unless the reverse
+        /// went the whole way); a start that is not free reverses nowhere.
+        #[test]
+        fn a_free_reverse_stops_at_the_first_pose_that_is_not(
+            x in -0.8f64..0.8, y in -0.55f64..0.55, yaw in -3.2f64..3.2, up_to_m in 0.0f64..0.1,
+        ) {
+            // The reverse's margin (1 cm) is not the space's (3 mm).
+            let free = space(BARE, 0.003);
+            let margin = space(BARE, 0.01);
+            let from = Pose2::new(x, y, yaw);
+            let at = |d: f64| from.compose(Pose2::new(-d, 0.0, 0.0));
+            let reverse_m = free.free_reverse_m(from, up_to_m, 0.01);
+            prop_assert!((0.0..=up_to_m).contains(&reverse_m));
+            if !margin.pose_is_free(from) {
+                prop_assert_eq!(reverse_m, 0.0);
+            } else {
+                let steps = (reverse_m / AHEAD_STEP_M).round() as usize;
+                for k in 0..=steps {
+                    prop_assert!(margin.pose_is_free(at((k as f64 * AHEAD_STEP_M).min(reverse_m))));
+                }
+                if reverse_m + 1e-12 < up_to_m {
+                    prop_assert!(!margin.pose_is_free(at((reverse_m + AHEAD_STEP_M).min(up_to_m))));
                 }
             }
         }
