@@ -11,6 +11,7 @@
 //! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
 use crate::config::{Config, Policy as Driving};
+use crate::control::creep::Creep;
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
 use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_leg, plan_original_route};
@@ -334,7 +335,7 @@ pub struct RouteNavigator {
     dock: bool,
     failed: bool,
     last_goal: Option<Vec2>,
-    creep_from: Option<Pose2>,
+    creep: Option<Creep>,
     route: Option<Route>,
 }
 
@@ -367,7 +368,7 @@ impl RouteNavigator {
             dock: false,
             failed: false,
             last_goal: None,
-            creep_from: None,
+            creep: None,
             route: None,
         }
     }
@@ -381,7 +382,7 @@ impl RouteNavigator {
     }
 
     /// The creep to contact after the docking approach: speed, m/s, and how far, m.
-    fn creep(&self) -> (f64, f64) {
+    fn creep_limits(&self) -> (f64, f64) {
         match self.preset {
             Driving::Ours => (
                 self.config.navigation.dock_creep_speed_m_s,
@@ -395,7 +396,7 @@ impl RouteNavigator {
 impl Navigator for RouteNavigator {
     fn go_to(&mut self, _now_us: u64, pose: Pose2, goal: WaypointId, dock: bool, velocity: Vec2) {
         self.dock = dock;
-        self.creep_from = None;
+        self.creep = None;
         let Some(slot) = self.field.slot_for_waypoint(goal).copied() else {
             self.failed = true;
             return;
@@ -453,15 +454,14 @@ impl Navigator for RouteNavigator {
         if self.failed {
             return (BodyTwist::default(), Arrival::Failed);
         }
-        if let Some(from) = self.creep_from {
-            let (speed_m_s, limit_m) = self.creep();
-            return if switch_pressed {
-                (BodyTwist::default(), Arrival::Docked)
-            } else if from.position().distance(pose.position()) > limit_m {
-                (BodyTwist::default(), Arrival::Arrived)
-            } else {
-                (BodyTwist::new(speed_m_s, 0.0, 0.0), Arrival::Moving)
+        if let Some(creep) = self.creep {
+            let (twist, status) = creep.update(pose, switch_pressed);
+            let arrival = match status {
+                Status::Docked => Arrival::Docked,
+                Status::Arrived => Arrival::Arrived,
+                Status::Following | Status::Idle => Arrival::Moving,
             };
+            return (twist, arrival);
         }
         let command = self
             .follower
@@ -470,11 +470,12 @@ impl Navigator for RouteNavigator {
             Status::Following => Arrival::Moving,
             Status::Docked => Arrival::Docked,
             Status::Arrived | Status::Idle => {
-                let (speed_m_s, limit_m) = self.creep();
+                let (speed_m_s, limit_m) = self.creep_limits();
                 if self.dock && limit_m > 0.0 {
                     // At the pick pose with the switch open: creep on to the part.
-                    self.creep_from = Some(pose);
-                    return (BodyTwist::new(speed_m_s, 0.0, 0.0), Arrival::Moving);
+                    let creep = Creep::new(pose, speed_m_s, limit_m);
+                    self.creep = Some(creep);
+                    return (creep.update(pose, false).0, Arrival::Moving);
                 }
                 Arrival::Arrived
             }

@@ -111,6 +111,16 @@ impl Mecanum {
         })
     }
 
+    /// The largest yaw rate (rad/s, either way) the wheels have left beside the translation
+    /// `vx_m_s`, `vy_m_s` (robot frame) with no wheel above `max_wheel_speed_rad_s`: every
+    /// wheel's rolling speed is |vx| + |vy| + k·|ω| in the worst of the four sign
+    /// combinations, and a mecanum base has all four. 0 when the translation alone takes it
+    /// all.
+    pub fn yaw_rate_left_rad_s(&self, vx_m_s: f64, vy_m_s: f64, max_wheel_speed_rad_s: f64) -> f64 {
+        let rim_left = max_wheel_speed_rad_s * self.wheel_radius_m - vx_m_s.abs() - vy_m_s.abs();
+        (rim_left / self.half_wheelbase_sum_m).max(0.0)
+    }
+
     /// Forward kinematics: the body twist for wire speeds (rad/s, motor index order).
     /// Also maps wheel angle increments (rad) to body increments (m, m, rad).
     pub fn forward(&self, wheel_speeds_rad_s: [f64; 4]) -> BodyTwist {
@@ -223,6 +233,29 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn the_yaw_rate_left_beside_a_translation_takes_the_busiest_wheel_to_its_limit(
+            vx in -0.7f64..0.7,
+            vy in -0.7f64..0.7,
+            turn_left in proptest::bool::ANY,
+        ) {
+            let (kin, max) = (kin(), 24.3);
+            let left = kin.yaw_rate_left_rad_s(vx, vy, max);
+            let peak = |omega: f64| {
+                kin.inverse(BodyTwist::new(vx, vy, omega))
+                    .iter()
+                    .fold(0.0f64, |m, w| m.max(w.abs()))
+            };
+            let omega = if turn_left { left } else { -left };
+            if left > 0.0 {
+                // Exactly at the limit, either way round.
+                prop_assert!((peak(omega) - max).abs() < 1e-9, "{}", peak(omega));
+            } else {
+                // The translation alone reaches the limit.
+                prop_assert!(peak(0.0) >= max - 1e-9);
+            }
+        }
+
         #[test]
         fn forward_inverts_inverse(t in twist()) {
             let back = kin().forward(kin().inverse(t));

@@ -10,20 +10,24 @@
 //! checked for the bare robot's swept disc.
 //!
 //! A trip ends when the follower reports `Arrived` or `Docked`, or after [`TIMEOUT_S`]
-//! (counted). Then the robot is left [`SETTLE_S`] at rest and its true pose compared with
+//! (counted); into the incoming warehouse, our follower's docking approach that arrives with
+//! the switch open goes on into the navigator's creep to contact
+//! (`ratf_core::control::creep`), as in a round (the original follower's trips end where it
+//! ends, as they always have here). Then the robot is left [`SETTLE_S`] at rest and its true pose compared with
 //! the goal (the slot's pick pose). Cross-track error is the true position's distance to the
 //! route polyline, every host tick.
 
 use serde::Serialize;
 
 use ratf_core::config::Config;
+use ratf_core::control::creep::Creep;
 use ratf_core::control::follower::{Follower, PathFollower, Status};
 use ratf_core::control::original::{OriginalFollower, OriginalParams};
 use ratf_core::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::PartColor;
 use ratf_core::field::geometry::{Pose2, Segment, wrap_angle};
-use ratf_core::field::{Field, Rect, WaypointId};
+use ratf_core::field::{Field, Rect, SlotKind, WaypointId};
 use ratf_core::planning::graph::{PlanError, RoadMap};
 use ratf_core::planning::shortcuts::{Footprint, FreeSpace};
 use ratf_sim::harness::SimulatedRobot;
@@ -272,10 +276,10 @@ pub fn run_trip(
     let route = route_for(&config, preset, trip)?;
     let field = Field::competition();
     let start = start_pose(&field, trip.from)?;
-    let goal = field
+    let slot = field
         .slot_for_waypoint(WaypointId(trip.to))
-        .ok_or(NavBenchError::NoSlot(trip.to))?
-        .pick_pose;
+        .ok_or(NavBenchError::NoSlot(trip.to))?;
+    let goal = slot.pick_pose;
     let mut follower: Box<dyn PathFollower> = match preset {
         Preset::Ours => Box::new(Follower::new(&config)),
         Preset::Original => {
@@ -287,11 +291,18 @@ pub fn run_trip(
         }
     };
     let route_length_m = route.length_m();
+    // Only the incoming warehouse holds parts here: elsewhere there is nothing to creep to.
+    let creep =
+        (preset == Preset::Ours && slot.kind == SlotKind::Incoming).then_some(CreepLimits {
+            speed_m_s: config.navigation.dock_creep_speed_m_s,
+            limit_m: config.navigation.dock_creep_m,
+        });
     let drive = drive_route(
         &config,
         &scenario(&config, start),
         &route,
         follower.as_mut(),
+        creep,
         TIMEOUT_S,
     )?;
     Ok(TripResult {
@@ -344,14 +355,25 @@ pub struct DriveOutcome {
     pub collision_log: Vec<Collision>,
 }
 
+/// The creep to contact after a docking approach.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CreepLimits {
+    /// Speed, m/s.
+    pub speed_m_s: f64,
+    /// Farthest it goes, m.
+    pub limit_m: f64,
+}
+
 /// Drive `route` with `follower` in a fresh simulation of `scenario` (the core believes the
 /// robot starts at the scenario's true start): [`BOOT_S`] at rest, then the follower until it
-/// ends or `timeout_s`, then [`SETTLE_S`] at rest.
+/// ends or `timeout_s` (with `creep`, a docking approach that arrives with the switch open
+/// creeps on to contact), then [`SETTLE_S`] at rest.
 pub fn drive_route(
     config: &Config,
     scenario: &Scenario,
     route: &Route,
     follower: &mut dyn PathFollower,
+    creep: Option<CreepLimits>,
     timeout_s: f64,
 ) -> Result<DriveOutcome, NavBenchError> {
     let mut sim = SimulatedRobot::new(config, scenario, scenario.start_pose)?;
@@ -377,11 +399,28 @@ pub fn drive_route(
         collision_log: Vec::new(),
     };
     let mut last_velocity: Option<(u64, ratf_core::field::Vec2)> = None;
+    let mut creeping: Option<Creep> = None;
     while status == Status::Following && sim.now_us() < timeout_us {
         let ticked = sim.step(|robot, now_us| {
-            let command = follower.update(now_us, robot.pose(), robot.switch_pressed());
-            status = command.status;
-            robot.command_motion(command.twist);
+            let (pose, switch) = (robot.pose(), robot.switch_pressed());
+            let (twist, now_status) = match creeping {
+                Some(creep) => creep.update(pose, switch),
+                None => {
+                    let command = follower.update(now_us, pose, switch);
+                    match creep {
+                        Some(limits)
+                            if command.status == Status::Arrived && route.docks_on_switch() =>
+                        {
+                            let started = Creep::new(pose, limits.speed_m_s, limits.limit_m);
+                            creeping = Some(started);
+                            started.update(pose, false)
+                        }
+                        _ => (command.twist, command.status),
+                    }
+                }
+            };
+            status = now_status;
+            robot.command_motion(twist);
         })?;
         if ticked {
             let body = sim.world().body();
@@ -506,7 +545,7 @@ mod tests {
             ..Scenario::new(config)
         };
         let mut follower = Follower::new(config);
-        drive_route(config, &scenario, &route, &mut follower, 8.0).unwrap()
+        drive_route(config, &scenario, &route, &mut follower, None, 8.0).unwrap()
     }
 
     fn assert_reached(out: &DriveOutcome, goal: Pose2) {
@@ -606,7 +645,7 @@ mod tests {
         scenario.incoming = [None; 4];
         let route = route_for(&config, Preset::Ours, trip).unwrap();
         let mut follower = Follower::new(&config);
-        let out = drive_route(&config, &scenario, &route, &mut follower, 8.0).unwrap();
+        let out = drive_route(&config, &scenario, &route, &mut follower, None, 8.0).unwrap();
         assert_eq!(out.status, Status::Arrived);
         assert!(out.final_pose.position().distance(route.goal().position()) < 0.01);
     }

@@ -4,23 +4,27 @@
 //! (`navigation.lag_compensation_s`): project onto the route (forward only), take the
 //! along-track speed from the [`Profile`] under the acceleration limit, add a cross-track
 //! correction towards the path, and steer the heading with feedback on the
-//! [`HeadingPlan`] (inside its turn window aiming a little ahead of it; outside, the robot
-//! slows down while its heading lags the plan, so it never turns where it has no room). On
-//! the last segment the along-track speed also follows the braking curve and a
+//! [`HeadingPlan`] (inside its turn window aiming a little ahead of it; the robot slows
+//! down while its heading lags the plan, outside the window so it never turns where it has
+//! no room, inside it only once the lag exceeds what is left of the window to catch up
+//! in). On the last segment the along-track speed also follows the braking curve and a
 //! proportional hold on the distance left, so the robot stops on the goal; it has arrived
-//! when its predicted stopping point is within `navigation.goal_tolerance_m`. The body
-//! twist is scaled as a whole to the wheel limit (direction kept,
-//! `Mecanum::limited_inverse`). In the docking approach to a part ([`Route::docks_on_switch`])
-//! the robot is already square to the face (the heading plan ends before it) and stops as
-//! soon as the box switch closes; at the goal it waits a few ticks for the switch before it
-//! counts as arrived by distance. Carrying a part in, no switch is waited for: the robot
-//! brakes onto the drop pose and has arrived there.
+//! when its predicted stopping point is within `navigation.goal_tolerance_m`. Where the
+//! wheels bind, the heading's feedback gets what they have left beside the translation
+//! (never less than the plan's own turn at that speed), and the body twist is then scaled
+//! as a whole to the wheel limit (direction kept, `Mecanum::limited_inverse`). In the
+//! docking approach to a part ([`Route::docks_on_switch`]) the robot is already square to
+//! the face (the heading plan ends before it), keeps at least the creep speed
+//! (`navigation.dock_creep_speed_m_s`) up to the goal so that it meets the part moving, and
+//! stops as soon as the box switch closes; on the goal with the switch open it has arrived,
+//! and the navigator creeps on at that speed. Carrying a part in, the robot brakes onto the
+//! drop pose and has arrived there.
 //! On a route that carries a part into a slot ([`Route::carries_part_in`]) the last
 //! segment's along-track speed also waits for the cross-track error, so the part goes in
 //! between the dividers on the slot's centre line.
 
 use crate::config::{Config, NavigationConfig};
-use crate::control::profile::{HeadingPlan, Profile};
+use crate::control::profile::{HeadingPlan, Profile, WheelBudget};
 use crate::control::route::Route;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::kinematics::{BodyTwist, Mecanum};
@@ -89,9 +93,6 @@ const HEADING_FREE_RAD: f64 = 0.02;
 const HEADING_STOP_RAD: f64 = 0.08;
 /// How far ahead of the heading plan the heading aims inside the turn window, m.
 const TURN_LEAD_M: f64 = 0.1;
-/// Host ticks a docking robot waits at rest on the goal for the switch before it counts as
-/// arrived by distance (3 × 20 ms: the telemetry delay with margin).
-const DOCK_SETTLE_TICKS: u32 = 3;
 /// Distance to the goal below which the creep speed fades out, m.
 const CREEP_FADE_M: f64 = 0.005;
 /// Nominal host period, s, for the first tick of a route (50 Hz).
@@ -118,13 +119,13 @@ pub struct Follower {
     config: NavigationConfig,
     mecanum: Mecanum,
     max_wheel_speed_rad_s: f64,
+    wheels: WheelBudget,
     route: Option<(Route, HeadingPlan, Profile)>,
     segment: usize,
     speed_m_s: f64,
     last_velocity: Vec2,
     last_omega_rad_s: f64,
     last_us: Option<u64>,
-    ticks_at_goal: u32,
     status: Status,
 }
 
@@ -136,13 +137,13 @@ impl Follower {
             config: config.navigation.clone(),
             mecanum: Mecanum::new(&config.robot),
             max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
+            wheels: WheelBudget::new(&config.robot),
             route: None,
             segment: 0,
             speed_m_s: 0.0,
             last_velocity: Vec2::ZERO,
             last_omega_rad_s: 0.0,
             last_us: None,
-            ticks_at_goal: 0,
             status: Status::Idle,
         }
     }
@@ -172,14 +173,13 @@ pub fn to_body(world: Vec2, yaw_rad: f64) -> Vec2 {
 impl PathFollower for Follower {
     fn start(&mut self, route: Route) {
         let heading = HeadingPlan::new(&route, &self.config);
-        let profile = Profile::new(&route, &heading, &self.config);
+        let profile = Profile::new(&route, &heading, &self.config, &self.wheels);
         self.route = Some((route, heading, profile));
         self.segment = 0;
         self.speed_m_s = 0.0;
         self.last_velocity = Vec2::ZERO;
         self.last_omega_rad_s = 0.0;
         self.last_us = None;
-        self.ticks_at_goal = 0;
         self.status = Status::Following;
     }
 
@@ -197,7 +197,6 @@ impl PathFollower for Follower {
         self.last_velocity = Vec2::ZERO;
         self.last_omega_rad_s = 0.0;
         self.last_us = None;
-        self.ticks_at_goal = 0;
     }
 
     fn update(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> FollowerCommand {
@@ -238,19 +237,14 @@ impl PathFollower for Follower {
             && wrap_angle(goal.yaw_rad - predicted_yaw).abs()
                 < c.goal_heading_tolerance_deg.to_radians();
         if stop_here {
-            // In a docking approach the switch is the end and the distance the fallback: at
-            // the goal, wait a few ticks at rest for the switch (it closes ~5 mm short of the
-            // pick pose and its state arrives with the telemetry, `ratf_sim::parts::Gripper`).
-            self.ticks_at_goal += 1;
-            if !route.docks_on_switch() || self.ticks_at_goal > DOCK_SETTLE_TICKS {
-                self.status = Status::Arrived;
-            }
+            // In a docking approach the switch is the end and the distance the fallback: on
+            // the goal with the switch still open, the navigator's creep goes on to the part.
+            self.status = Status::Arrived;
             self.speed_m_s = 0.0;
             self.last_velocity = Vec2::ZERO;
             self.last_omega_rad_s = 0.0;
             return FollowerCommand::stopped(self.status);
         }
-        self.ticks_at_goal = 0;
 
         // Inside the turn window (where the robot can turn on the spot) the heading aims
         // `TURN_LEAD_M` ahead of the plan, so a short window is turned at the full rate;
@@ -264,7 +258,15 @@ impl PathFollower for Follower {
         let yaw_error = wrap_angle(yaw_target - predicted_yaw);
         // Outside the turn window the robot may not be turned: while it lags the plan,
         // slow down so it finishes turning where there is room.
-        let lag_rad = wrap_angle(yaw_plan - predicted_yaw) * heading.turn_rad.signum();
+        // Inside it, the heading may trail the plan by up to the lead's length of plan, less
+        // towards the window's end, where it must be on the goal heading.
+        let trail_m = if at.s_m >= heading.from_m {
+            TURN_LEAD_M.min((heading.to_m - at.s_m).max(0.0))
+        } else {
+            0.0
+        };
+        let lag_rad = wrap_angle(heading.yaw_at(at.s_m - trail_m) - predicted_yaw)
+            * heading.turn_rad.signum();
         let heading_factor = slow_down(lag_rad.abs(), HEADING_FREE_RAD, HEADING_STOP_RAD);
         let heading_factor = if lag_rad < 0.0 && at.s_m < heading.to_m {
             1.0
@@ -287,11 +289,18 @@ impl PathFollower for Follower {
             // The creep fades out over the last `CREEP_FADE_M` so it cannot drive a limit
             // cycle around the goal.
             let creep = CREEP_M_S * (remaining.abs() / CREEP_FADE_M).min(1.0);
+            // Into a part, the robot meets it at the creep speed rather than stopping short.
+            let floor = if route.docks_on_switch() {
+                c.dock_creep_speed_m_s
+            } else {
+                0.0
+            };
             let hold = if remaining > 0.0 {
-                (2.0 * c.max_decel_m_s2 * remaining)
+                ((2.0 * c.max_decel_m_s2 * remaining)
                     .sqrt()
                     .min(c.position_gain_per_s * remaining)
-                    + creep
+                    + creep)
+                    .max(floor)
             } else {
                 (c.position_gain_per_s * remaining - creep).max(-c.dock_speed_m_s)
             };
@@ -316,6 +325,15 @@ impl PathFollower for Follower {
             velocity,
             pose.yaw_rad + self.last_omega_rad_s * c.lag_compensation_s / 2.0,
         );
+        // Where the wheels bind, the translation goes first: the heading's feedback gets
+        // what the wheels have left beside it, and at least the plan's turn at this speed.
+        // (Scaling the whole twist instead cut the speed to a crawl on entering a turn
+        // window, where the lead asks for the full yaw rate at once.)
+        let yaw_rate_room = self
+            .mecanum
+            .yaw_rate_left_rad_s(body.x, body.y, self.max_wheel_speed_rad_s)
+            .max((heading.rate_rad_per_m(at.s_m) * along).abs());
+        let omega = omega.clamp(-yaw_rate_room, yaw_rate_room);
         let limited = self.mecanum.limited_inverse(
             BodyTwist::new(body.x, body.y, omega),
             self.max_wheel_speed_rad_s,
@@ -370,7 +388,7 @@ mod tests {
     }
 
     #[test]
-    fn carrying_a_part_in_the_robot_arrives_on_the_pose_without_waiting_for_the_switch() {
+    fn on_the_goal_the_robot_has_arrived_without_waiting_for_the_switch() {
         let config = Config::default();
         let route = Route::new(
             vec![Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.0)],
@@ -384,12 +402,87 @@ mod tests {
             f.start(route);
             f.update(1_000, Pose2::new(0.5, 0.0, 0.0), false).status
         };
-        // To a part, the robot waits on the goal a few ticks for the switch.
-        assert_eq!(first_status_on_the_goal(route.clone()), Status::Following);
+        // To a part too: the navigator's creep goes on from there to the switch.
+        assert_eq!(first_status_on_the_goal(route.clone()), Status::Arrived);
         assert_eq!(
             first_status_on_the_goal(route.carrying_part_in()),
             Status::Arrived
         );
+    }
+
+    #[test]
+    fn into_a_part_the_robot_keeps_the_creep_speed_up_to_the_goal() {
+        let config = Config::default();
+        let nav = &config.navigation;
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.0)],
+            0.0,
+            0.0,
+            nav.dock_length_m,
+        )
+        .unwrap();
+        // Moving at the creep speed, with the predicted position 5.5 mm short of the goal
+        // (outside the arrival tolerance), where the hold alone would ask for less.
+        let speed = nav.dock_creep_speed_m_s;
+        let x = 0.5 - 0.0055 - speed * nav.lag_compensation_s;
+        let along = |route: Route| {
+            let mut f = Follower::new(&config);
+            f.start_moving(route, Vec2::new(speed, 0.0));
+            f.update(1_000, Pose2::new(x, 0.0, 0.0), false).twist.vx_m_s
+        };
+        assert!(along(route.clone()) >= speed - 1e-12);
+        assert!(along(route.carrying_part_in()) < speed);
+    }
+
+    /// 1 m straight on, turning half a turn between 0.1 and 0.9 m.
+    fn turning_on_a_straight() -> Route {
+        Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0)],
+            0.0,
+            std::f64::consts::PI,
+            0.0,
+        )
+        .unwrap()
+        .with_turn_window(0.1, 0.9)
+    }
+
+    #[test]
+    fn entering_a_turn_window_at_speed_the_translation_keeps_its_share_of_the_wheels() {
+        let config = Config::default();
+        let mut f = Follower::new(&config);
+        f.start_moving(turning_on_a_straight(), Vec2::new(0.45, 0.0));
+        // The predicted position just inside the window, the heading not yet turned: the
+        // lead asks for the full yaw rate.
+        let x = 0.101 - 0.45 * config.navigation.lag_compensation_s;
+        let out = f.update(1_000, Pose2::new(x, 0.0, 0.0), false);
+        let profile_cap = f.speed_m_s();
+        let peak = Mecanum::new(&config.robot)
+            .inverse(out.twist)
+            .iter()
+            .fold(0.0f64, |m, w| m.max(w.abs()));
+        assert!(peak <= config.robot.max_wheel_speed_rad_s + 1e-9, "{peak}");
+        // The wheels' cap of the turn (1 + k·rate per unit speed) leaves about 0.42 m/s;
+        // scaling the whole twist to the lead's yaw rate would have left 0.37.
+        assert!(out.twist.vx_m_s > 0.4, "{out:?}");
+        assert!((out.twist.vx_m_s - profile_cap).abs() < 1e-9);
+        assert!(out.twist.omega_rad_s > 0.0);
+    }
+
+    #[test]
+    fn inside_a_turn_window_the_heading_may_trail_its_plan_until_near_the_end() {
+        let config = Config::default();
+        let along_with_the_start_heading_at = |s_m: f64| {
+            let mut f = Follower::new(&config);
+            f.start(turning_on_a_straight());
+            f.update(1_000, Pose2::new(s_m, 0.0, 0.0), false)
+                .twist
+                .vx_m_s
+        };
+        // 5 cm in, the plan has turned 0.2 rad: within the trail, full acceleration.
+        let first_tick = config.navigation.max_accel_m_s2 * NOMINAL_DT_S;
+        assert!((along_with_the_start_heading_at(0.15) - first_tick).abs() < 1e-12);
+        // 2 cm before the window's end the heading must nearly be on the goal: stop.
+        assert!(along_with_the_start_heading_at(0.88).abs() < 1e-12);
     }
 
     /// Along the row, then down into a slot facing it (heading −90° throughout): on the last

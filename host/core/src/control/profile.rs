@@ -2,13 +2,15 @@
 //! slow-downs before corners (by turn angle, and the planner's cap where an overshoot would
 //! touch an obstacle, `control::route`), in the docking approach to a part (not on the
 //! way into a drop: [`Route::docks_on_switch`]) and where the heading must turn faster than
-//! the yaw-rate limit allows at full speed.
+//! the yaw-rate limit allows at full speed, and wherever the wheels cannot give the top
+//! speed with the heading's turn on top ([`WheelBudget`]).
 
 use std::f64::consts::PI;
 
-use crate::config::NavigationConfig;
+use crate::config::{NavigationConfig, RobotConfig};
 use crate::control::route::Route;
 use crate::field::geometry::wrap_angle;
+use crate::kinematics::{BodyTwist, Mecanum};
 
 /// Lowest cap of a turn window, m/s: enough to reach a window of zero length.
 pub const MIN_TURN_SPEED_M_S: f64 = 0.03;
@@ -77,6 +79,47 @@ impl HeadingPlan {
     }
 }
 
+/// Length of the stretches over which the wheel budget's cap is taken as constant, m.
+const WHEEL_ZONE_M: f64 = 0.01;
+
+/// The wheels' speed limit, which the heading's turn shares with the translation: on a
+/// mecanum base every wheel's rim speed is |vx| ± |vy| ± k·ω, so a body moving diagonally
+/// in its own frame, or turning as it goes, has less along-track speed left than one
+/// driving straight ahead.
+#[derive(Clone, Debug)]
+pub struct WheelBudget {
+    mecanum: Mecanum,
+    max_wheel_speed_rad_s: f64,
+}
+
+impl WheelBudget {
+    /// The wheels of `robot` (`max_wheel_speed_rad_s` and the kinematics).
+    pub fn new(robot: &RobotConfig) -> Self {
+        Self {
+            mecanum: Mecanum::new(robot),
+            max_wheel_speed_rad_s: robot.max_wheel_speed_rad_s,
+        }
+    }
+
+    /// The highest along-track speed at arc length `s_m` of `route` at which no wheel
+    /// exceeds its limit, m/s: the route's direction in the planned heading's frame, with
+    /// the heading's turn per metre (infinite where nothing moves).
+    pub fn speed_limit_m_s(&self, route: &Route, heading: &HeadingPlan, s_m: f64) -> f64 {
+        let direction = route.tangent_at_m(s_m).rotated(-heading.yaw_at(s_m));
+        let per_unit_speed = self.mecanum.inverse(BodyTwist::new(
+            direction.x,
+            direction.y,
+            heading.rate_rad_per_m(s_m),
+        ));
+        let peak = per_unit_speed.iter().fold(0.0f64, |m, w| m.max(w.abs()));
+        if peak > 0.0 {
+            self.max_wheel_speed_rad_s / peak
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
 /// Speed caps along one route.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
@@ -98,8 +141,17 @@ pub fn corner_speed_m_s(turn_rad: f64, accel_m_s2: f64, blend_m: f64) -> f64 {
 }
 
 impl Profile {
-    /// The caps for `route`: corners, the heading turn, the docking approach, the stop.
-    pub fn new(route: &Route, heading: &HeadingPlan, config: &NavigationConfig) -> Self {
+    /// The caps for `route`: corners, the heading turn, the wheels' budget, the docking
+    /// approach, the stop. The wheels' cap is their whole limit: the follower scales its
+    /// feedback beyond it down with the twist (planning to 0.9 of it was 1–3 % slower per
+    /// round on the realistic world's seeds 61–80, calibrated), and without it the robot
+    /// reached a turn window at full speed and lost it to the turn all at once.
+    pub fn new(
+        route: &Route,
+        heading: &HeadingPlan,
+        config: &NavigationConfig,
+        wheels: &WheelBudget,
+    ) -> Self {
         let mut zones = Vec::new();
         let n = route.points().len();
         for i in 1..n.saturating_sub(1) {
@@ -130,6 +182,23 @@ impl Profile {
             });
         }
         let length = route.length_m();
+        let stretches = (length / WHEEL_ZONE_M).ceil() as usize;
+        for k in 0..stretches {
+            let (from_m, to_m) = (
+                k as f64 * WHEEL_ZONE_M,
+                ((k + 1) as f64 * WHEEL_ZONE_M).min(length),
+            );
+            let cap = wheels
+                .speed_limit_m_s(route, heading, from_m)
+                .min(wheels.speed_limit_m_s(route, heading, to_m));
+            if cap < config.max_speed_m_s {
+                zones.push(SpeedZone {
+                    from_m,
+                    to_m,
+                    max_m_s: cap,
+                });
+            }
+        }
         if route.docks_on_switch() {
             zones.push(SpeedZone {
                 from_m: length - route.dock_length_m(),
@@ -178,6 +247,10 @@ mod tests {
     use crate::field::geometry::Vec2;
     use std::f64::consts::FRAC_PI_2;
 
+    fn wheels() -> WheelBudget {
+        WheelBudget::new(&RobotConfig::default())
+    }
+
     #[test]
     fn trapezoid_corner_and_dock() {
         let config = NavigationConfig {
@@ -196,7 +269,7 @@ mod tests {
         )
         .unwrap();
         let heading = HeadingPlan::new(&route, &config);
-        let profile = Profile::new(&route, &heading, &config);
+        let profile = Profile::new(&route, &heading, &config, &wheels());
         assert_eq!(profile.speed_limit_m_s(0.3), config.max_speed_m_s);
         let corner = corner_speed_m_s(FRAC_PI_2, 1.5, 0.05);
         assert!((corner - 0.2303).abs() < 1e-3, "{corner}");
@@ -225,13 +298,39 @@ mod tests {
         let inside_dock = 1.0 - config.dock_length_m / 2.0;
         let cap_at = |route: &Route| {
             let heading = HeadingPlan::new(route, &config);
-            Profile::new(route, &heading, &config).speed_limit_m_s(inside_dock)
+            Profile::new(route, &heading, &config, &wheels()).speed_limit_m_s(inside_dock)
         };
         assert_eq!(cap_at(&route), config.dock_speed_m_s);
         // Carrying a part in, only the braking curve onto the goal limits the speed.
         let braking = (2.0 * config.max_decel_m_s2 * config.dock_length_m / 2.0).sqrt();
         assert!(braking > config.dock_speed_m_s);
         assert!((cap_at(&route.carrying_part_in()) - braking).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_turn_along_the_route_caps_the_speed_to_what_the_wheels_have_left() {
+        let config = NavigationConfig::default();
+        let robot = RobotConfig::default();
+        let route = Route::new(vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0)], 0.0, PI, 0.0)
+            .unwrap()
+            .with_turn_window(0.1, 0.9);
+        let heading = HeadingPlan::new(&route, &config);
+        let profile = Profile::new(&route, &heading, &config, &wheels());
+        // Rim speed per unit along-track speed: |vx| + |vy| in the turning body's frame,
+        // plus k times the turn per metre.
+        let rim_m_s = robot.max_wheel_speed_rad_s * robot.wheel_radius_m();
+        let k = robot.half_wheelbase_sum_m();
+        let per_m = PI / 0.8;
+        // Just inside the window the body nearly faces along the route (each centimetre
+        // is capped as at its worse end: here 1 cm in, turned by 0.04 rad).
+        let turned = 0.01 * per_m;
+        let ahead = rim_m_s / (turned.cos() + turned.sin() + k * per_m);
+        assert!((profile.speed_limit_m_s(0.105) - ahead).abs() < 1e-9);
+        // A quarter of the way round it moves diagonally in its own frame: less is left.
+        let diagonal = rim_m_s / (2f64.sqrt() + k * per_m);
+        assert!((profile.speed_limit_m_s(0.305) - diagonal).abs() < 1e-9);
+        // Before the window, only the top speed and the braking onto the cap ahead.
+        assert_eq!(profile.speed_limit_m_s(0.0), config.max_speed_m_s);
     }
 
     #[test]

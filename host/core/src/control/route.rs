@@ -117,12 +117,23 @@ impl Route {
     /// The point at arc length `s_m` (clamped to the route).
     pub fn point_at(&self, s_m: f64) -> Vec2 {
         let s = s_m.clamp(0.0, self.length_m());
-        let i = self
-            .cumulative_m
-            .windows(2)
-            .position(|w| s <= w[1])
-            .unwrap_or(self.points.len() - 2);
+        let i = self.segment_at(s);
         self.points[i] + self.tangent(i) * (s - self.cumulative_m[i])
+    }
+
+    /// The unit direction of travel at arc length `s_m` (clamped to the route; at a corner,
+    /// the incoming segment's).
+    pub fn tangent_at_m(&self, s_m: f64) -> Vec2 {
+        self.tangent(self.segment_at(s_m.clamp(0.0, self.length_m())))
+    }
+
+    /// The segment arc length `s_m` (on the route) lies on; a corner belongs to the
+    /// segment before it.
+    fn segment_at(&self, s_m: f64) -> usize {
+        self.cumulative_m
+            .windows(2)
+            .position(|w| s_m <= w[1])
+            .unwrap_or(self.points.len() - 2)
     }
 
     /// The points.

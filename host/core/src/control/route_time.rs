@@ -2,19 +2,17 @@
 //! (issue 14: the order the planner chooses is the fastest in driving time, not in straight
 //! metres).
 //!
-//! A route's time is the minimum-time speed profile along its arc length under three caps at
-//! every point: the follower's [`Profile`] (top speed, corners, the heading turn's yaw-rate
-//! cap, the docking approach, the stop), and the wheel-speed budget the heading turn shares
-//! with the translation (the body direction and the turn rate per metre through the mecanum
-//! kinematics); with the acceleration and deceleration limits between them (a forward and a
-//! backward pass). It leaves out what every leg has alike (the follower's final hold on the
-//! goal, the lag), so it ranks legs rather than predicting them to the tenth of a second.
+//! A route's time is the minimum-time speed profile along its arc length under the
+//! follower's [`Profile`] at every point (top speed, corners, the heading turn's yaw-rate
+//! cap, the wheel-speed budget the heading turn shares with the translation, the docking
+//! approach, the stop), with the acceleration and deceleration limits between them (a
+//! forward and a backward pass). It leaves out what every leg has alike (the follower's
+//! final hold on the goal, the lag), so it ranks legs rather than predicting them to the
+//! tenth of a second.
 use crate::config::{Config, NavigationConfig};
-use crate::control::profile::{HeadingPlan, Profile};
+use crate::control::profile::{HeadingPlan, Profile, WheelBudget};
 use crate::control::route::{Route, plan_leg};
 use crate::field::Field;
-use crate::field::geometry::Vec2;
-use crate::kinematics::{BodyTwist, Mecanum};
 use crate::planning::graph::RoadMap;
 use crate::planning::our_map::our_graph;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
@@ -31,8 +29,7 @@ const MIN_SPEED_M_S: f64 = 0.015;
 #[derive(Clone, Debug)]
 pub struct RouteTimer {
     navigation: NavigationConfig,
-    mecanum: Mecanum,
-    max_wheel_speed_rad_s: f64,
+    wheels: WheelBudget,
 }
 
 impl RouteTimer {
@@ -40,25 +37,19 @@ impl RouteTimer {
     pub fn new(config: &Config) -> Self {
         Self {
             navigation: config.navigation.clone(),
-            mecanum: Mecanum::new(&config.robot),
-            max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
+            wheels: WheelBudget::new(&config.robot),
         }
     }
 
     /// Seconds from rest at the start of `route` to rest at its end.
     pub fn seconds(&self, route: &Route) -> f64 {
         let heading = HeadingPlan::new(route, &self.navigation);
-        let profile = Profile::new(route, &heading, &self.navigation);
+        let profile = Profile::new(route, &heading, &self.navigation, &self.wheels);
         let length = route.length_m();
         let steps = ((length / STEP_M).ceil() as usize).max(1);
         let ds = length / steps as f64;
         let mut speed: Vec<f64> = (0..=steps)
-            .map(|k| {
-                let s = k as f64 * ds;
-                profile
-                    .speed_limit_m_s(s)
-                    .min(self.wheel_limit_m_s(route, &heading, s))
-            })
+            .map(|k| profile.speed_limit_m_s(k as f64 * ds))
             .collect();
         speed[0] = 0.0;
         speed[steps] = 0.0;
@@ -75,32 +66,6 @@ impl RouteTimer {
             .map(|pair| ds / ((pair[0] + pair[1]) / 2.0).max(MIN_SPEED_M_S))
             .sum()
     }
-
-    /// The highest speed at arc length `s_m` at which no wheel exceeds its limit, m/s: the
-    /// route's direction in the planned heading's frame, with the heading's turn per metre.
-    fn wheel_limit_m_s(&self, route: &Route, heading: &HeadingPlan, s_m: f64) -> f64 {
-        let direction = tangent_at(route, s_m).rotated(-heading.yaw_at(s_m));
-        let per_unit_speed = self.mecanum.inverse(BodyTwist::new(
-            direction.x,
-            direction.y,
-            heading.rate_rad_per_m(s_m),
-        ));
-        let peak = per_unit_speed.iter().fold(0.0f64, |m, w| m.max(w.abs()));
-        if peak > 0.0 {
-            self.max_wheel_speed_rad_s / peak
-        } else {
-            f64::INFINITY
-        }
-    }
-}
-
-/// The unit direction of `route` at arc length `s_m` (its last segment's beyond the end).
-fn tangent_at(route: &Route, s_m: f64) -> Vec2 {
-    let segments = route.points().len().saturating_sub(1);
-    let index = (1..segments)
-        .find(|&i| route.s_at_point_m(i) > s_m)
-        .map_or(segments.saturating_sub(1), |i| i - 1);
-    route.tangent(index)
 }
 
 /// The task planner's travel times from our routes: for every pair of locations, the route
@@ -192,6 +157,7 @@ impl TravelTimes for RouteTimes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::geometry::Vec2;
 
     fn straight(length_m: f64, turn_rad: f64) -> Route {
         Route::new(
