@@ -84,8 +84,12 @@ pub struct NavigationConfig {
     /// centimetre off when the lidar's calibration is (real-world-errors.md); the original
     /// creeps with no limit at all (original-system.md §6.4). 0 turns the creep off.
     pub dock_creep_m: f64,
-    /// Creep speed, m/s. 0.05: 1 mm per 20 ms tick, so the robot stops within about a
-    /// millimetre of the contact once the switch reports it.
+    /// Creep speed, m/s (the docking approach hands over to the creep on the pick pose
+    /// without stopping, `control::follower`). 0.035: the switch closes about 5 mm before the magnet meets
+    /// the plate (its lever reaches 20 mm beyond the front face, the magnet 15 mm), and the
+    /// robot stops some 0.14 s later (up to 40 ms of telemetry, the motors' 0.1 s time
+    /// constant): 5 mm / 0.14 s. At 0.05 the magnet pushed a part standing against its
+    /// slot's back wall 2 mm into it (the ideal world's seed 51, rounds 1 and 2).
     pub dock_creep_speed_m_s: f64,
     /// No rotation within this path length of the start, m. 0.10: leaving a slot, the
     /// robot's front is then 0.1 m clear of the divider tips (the original used 0.15 m,
@@ -121,7 +125,7 @@ impl Default for NavigationConfig {
             dock_length_m: 0.05,
             dock_speed_m_s: 0.25,
             dock_creep_m: 0.04,
-            dock_creep_speed_m_s: 0.05,
+            dock_creep_speed_m_s: 0.035,
             rotate_after_m: 0.10,
             align_before_m: 0.08,
             shortcuts: false,

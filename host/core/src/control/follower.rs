@@ -14,10 +14,9 @@
 //! (never less than the plan's own turn at that speed), and the body twist is then scaled
 //! as a whole to the wheel limit (direction kept, `Mecanum::limited_inverse`). In the
 //! docking approach to a part ([`Route::docks_on_switch`]) the robot is already square to
-//! the face (the heading plan ends before it), keeps at least the creep speed
-//! (`navigation.dock_creep_speed_m_s`) up to the goal so that it meets the part moving, and
-//! stops as soon as the box switch closes; on the goal with the switch open it has arrived,
-//! and the navigator creeps on at that speed. Carrying a part in, the robot brakes onto the
+//! the face (the heading plan ends before it) and stops as soon as the box switch closes; on
+//! the goal with the switch open it has arrived at once, still moving, and the navigator
+//! creeps on to the part (`control::creep`). Carrying a part in, the robot brakes onto the
 //! drop pose and has arrived there.
 //! On a route that carries a part into a slot ([`Route::carries_part_in`]) the last
 //! segment's along-track speed also waits for the cross-track error, so the part goes in
@@ -289,18 +288,11 @@ impl PathFollower for Follower {
             // The creep fades out over the last `CREEP_FADE_M` so it cannot drive a limit
             // cycle around the goal.
             let creep = CREEP_M_S * (remaining.abs() / CREEP_FADE_M).min(1.0);
-            // Into a part, the robot meets it at the creep speed rather than stopping short.
-            let floor = if route.docks_on_switch() {
-                c.dock_creep_speed_m_s
-            } else {
-                0.0
-            };
             let hold = if remaining > 0.0 {
-                ((2.0 * c.max_decel_m_s2 * remaining)
+                (2.0 * c.max_decel_m_s2 * remaining)
                     .sqrt()
                     .min(c.position_gain_per_s * remaining)
-                    + creep)
-                    .max(floor)
+                    + creep
             } else {
                 (c.position_gain_per_s * remaining - creep).max(-c.dock_speed_m_s)
             };
@@ -408,30 +400,6 @@ mod tests {
             first_status_on_the_goal(route.carrying_part_in()),
             Status::Arrived
         );
-    }
-
-    #[test]
-    fn into_a_part_the_robot_keeps_the_creep_speed_up_to_the_goal() {
-        let config = Config::default();
-        let nav = &config.navigation;
-        let route = Route::new(
-            vec![Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.0)],
-            0.0,
-            0.0,
-            nav.dock_length_m,
-        )
-        .unwrap();
-        // Moving at the creep speed, with the predicted position 5.5 mm short of the goal
-        // (outside the arrival tolerance), where the hold alone would ask for less.
-        let speed = nav.dock_creep_speed_m_s;
-        let x = 0.5 - 0.0055 - speed * nav.lag_compensation_s;
-        let along = |route: Route| {
-            let mut f = Follower::new(&config);
-            f.start_moving(route, Vec2::new(speed, 0.0));
-            f.update(1_000, Pose2::new(x, 0.0, 0.0), false).twist.vx_m_s
-        };
-        assert!(along(route.clone()) >= speed - 1e-12);
-        assert!(along(route.carrying_part_in()) < speed);
     }
 
     /// 1 m straight on, turning half a turn between 0.1 and 0.9 m.
