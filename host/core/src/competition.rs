@@ -11,7 +11,7 @@
 //! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
 use crate::config::{Config, Policy as Driving};
-use crate::control::creep::Creep;
+use crate::control::creep::{Creep, CreepLimits};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
 use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_leg, plan_original_route};
@@ -381,14 +381,14 @@ impl RouteNavigator {
         self.route.as_ref()
     }
 
-    /// The creep to contact after the docking approach: speed, m/s, and how far, m.
-    fn creep_limits(&self) -> (f64, f64) {
+    /// The creep to contact after the docking approach.
+    fn creep_limits(&self) -> CreepLimits {
         match self.preset {
-            Driving::Ours => (
-                self.config.navigation.dock_creep_speed_m_s,
-                self.config.navigation.dock_creep_m,
-            ),
-            Driving::Original => (ORIGINAL_CREEP_M_S, ORIGINAL_CREEP_LIMIT_M),
+            Driving::Ours => CreepLimits::ours(&self.config.navigation),
+            Driving::Original => CreepLimits {
+                speed_m_s: ORIGINAL_CREEP_M_S,
+                limit_m: ORIGINAL_CREEP_LIMIT_M,
+            },
         }
     }
 }
@@ -470,10 +470,10 @@ impl Navigator for RouteNavigator {
             Status::Following => Arrival::Moving,
             Status::Docked => Arrival::Docked,
             Status::Arrived | Status::Idle => {
-                let (speed_m_s, limit_m) = self.creep_limits();
-                if self.dock && limit_m > 0.0 {
+                let limits = self.creep_limits();
+                if self.dock && limits.limit_m > 0.0 {
                     // At the pick pose with the switch open: creep on to the part.
-                    let creep = Creep::new(pose, speed_m_s, limit_m);
+                    let creep = Creep::new(pose, limits);
                     self.creep = Some(creep);
                     return (creep.update(pose, false).0, Arrival::Moving);
                 }

@@ -20,7 +20,7 @@
 use serde::Serialize;
 
 use ratf_core::config::Config;
-use ratf_core::control::creep::Creep;
+use ratf_core::control::creep::{Creep, CreepLimits};
 use ratf_core::control::follower::{Follower, PathFollower, Status};
 use ratf_core::control::original::{OriginalFollower, OriginalParams};
 use ratf_core::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
@@ -292,11 +292,8 @@ pub fn run_trip(
     };
     let route_length_m = route.length_m();
     // Only the incoming warehouse holds parts here: elsewhere there is nothing to creep to.
-    let creep =
-        (preset == Preset::Ours && slot.kind == SlotKind::Incoming).then_some(CreepLimits {
-            speed_m_s: config.navigation.dock_creep_speed_m_s,
-            limit_m: config.navigation.dock_creep_m,
-        });
+    let creep = (preset == Preset::Ours && slot.kind == SlotKind::Incoming)
+        .then(|| CreepLimits::ours(&config.navigation));
     let drive = drive_route(
         &config,
         &scenario(&config, start),
@@ -355,15 +352,6 @@ pub struct DriveOutcome {
     pub collision_log: Vec<Collision>,
 }
 
-/// The creep to contact after a docking approach.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CreepLimits {
-    /// Speed, m/s.
-    pub speed_m_s: f64,
-    /// Farthest it goes, m.
-    pub limit_m: f64,
-}
-
 /// Drive `route` with `follower` in a fresh simulation of `scenario` (the core believes the
 /// robot starts at the scenario's true start): [`BOOT_S`] at rest, then the follower until it
 /// ends or `timeout_s` (with `creep`, a docking approach that arrives with the switch open
@@ -411,7 +399,7 @@ pub fn drive_route(
                         Some(limits)
                             if command.status == Status::Arrived && route.docks_on_switch() =>
                         {
-                            let started = Creep::new(pose, limits.speed_m_s, limits.limit_m);
+                            let started = Creep::new(pose, limits);
                             creeping = Some(started);
                             started.update(pose, false)
                         }

@@ -4,27 +4,42 @@
 //! standing deeper in its slot than its nominal place, or a pose estimate a little short, is
 //! met without a stop.
 
+use crate::config::NavigationConfig;
 use crate::control::follower::Status;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
+
+/// How a creep goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CreepLimits {
+    /// Speed straight ahead, m/s.
+    pub speed_m_s: f64,
+    /// Farthest it goes, m (0: no creep).
+    pub limit_m: f64,
+}
+
+impl CreepLimits {
+    /// Our robot's: `[navigation]`'s `dock_creep_speed_m_s` and `dock_creep_m`.
+    pub fn ours(config: &NavigationConfig) -> Self {
+        Self {
+            speed_m_s: config.dock_creep_speed_m_s,
+            limit_m: config.dock_creep_m,
+        }
+    }
+}
 
 /// A creep under way.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Creep {
     from: Pose2,
-    speed_m_s: f64,
-    limit_m: f64,
+    limits: CreepLimits,
 }
 
 impl Creep {
-    /// Creep straight ahead at `speed_m_s` (m/s) from `from` (the pose estimate where the
-    /// approach ended) for at most `limit_m` (m).
-    pub fn new(from: Pose2, speed_m_s: f64, limit_m: f64) -> Self {
-        Self {
-            from,
-            speed_m_s,
-            limit_m,
-        }
+    /// Creep straight ahead from `from` (the pose estimate where the approach ended) under
+    /// `limits`.
+    pub fn new(from: Pose2, limits: CreepLimits) -> Self {
+        Self { from, limits }
     }
 
     /// One tick with the pose estimate and the switch: the twist to command and where the
@@ -33,10 +48,13 @@ impl Creep {
     pub fn update(&self, pose: Pose2, switch_pressed: bool) -> (BodyTwist, Status) {
         if switch_pressed {
             (BodyTwist::default(), Status::Docked)
-        } else if self.from.position().distance(pose.position()) > self.limit_m {
+        } else if self.from.position().distance(pose.position()) > self.limits.limit_m {
             (BodyTwist::default(), Status::Arrived)
         } else {
-            (BodyTwist::new(self.speed_m_s, 0.0, 0.0), Status::Following)
+            (
+                BodyTwist::new(self.limits.speed_m_s, 0.0, 0.0),
+                Status::Following,
+            )
         }
     }
 }
@@ -47,7 +65,11 @@ mod tests {
 
     #[test]
     fn the_creep_goes_on_until_the_switch_or_its_limit() {
-        let creep = Creep::new(Pose2::new(1.0, 0.0, 0.0), 0.05, 0.04);
+        let limits = CreepLimits {
+            speed_m_s: 0.05,
+            limit_m: 0.04,
+        };
+        let creep = Creep::new(Pose2::new(1.0, 0.0, 0.0), limits);
         let at = |x: f64, switch| creep.update(Pose2::new(x, 0.0, 0.0), switch);
         assert_eq!(
             at(1.01, false),

@@ -183,14 +183,14 @@ impl Profile {
         }
         let length = route.length_m();
         let stretches = (length / WHEEL_ZONE_M).ceil() as usize;
+        // The wheels' limit at each stretch's ends, each boundary computed once.
+        let boundary_m = |k: usize| (k as f64 * WHEEL_ZONE_M).min(length);
+        let at_boundary: Vec<f64> = (0..=stretches)
+            .map(|k| wheels.speed_limit_m_s(route, heading, boundary_m(k)))
+            .collect();
         for k in 0..stretches {
-            let (from_m, to_m) = (
-                k as f64 * WHEEL_ZONE_M,
-                ((k + 1) as f64 * WHEEL_ZONE_M).min(length),
-            );
-            let cap = wheels
-                .speed_limit_m_s(route, heading, from_m)
-                .min(wheels.speed_limit_m_s(route, heading, to_m));
+            let (from_m, to_m) = (boundary_m(k), boundary_m(k + 1));
+            let cap = at_boundary[k].min(at_boundary[k + 1]);
             if cap < config.max_speed_m_s {
                 zones.push(SpeedZone {
                     from_m,
