@@ -128,12 +128,15 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
         (config.robot.wheel_diameter_m / true_diameter_m - 1.0) * 100.0,
         (config.robot.half_wheelbase_sum_m() / true_lx_plus_ly_m - 1.0) * 100.0,
     ];
+    let strafe = key("strafe_factor");
     let figures = format!(
         "wheel diameter {diameter_m:.5} m, truth {true_diameter_m:.5} m, error \
          {diameter_error_pct:+.3} % (before {:+.3} %); lx+ly {lx_plus_ly_m:.5} m, truth \
-         {true_lx_plus_ly_m:.5} m, error {lx_plus_ly_error_pct:+.3} % (before {:+.3} %)\n{}",
+         {true_lx_plus_ly_m:.5} m, error {lx_plus_ly_error_pct:+.3} % (before {:+.3} %); \
+         strafe factor {strafe:.4}, truth {:.4}\n{}",
         before_pct[0],
         before_pct[1],
+        truth.lateral_factor,
         driven.seen.join("\n")
     );
     eprintln!("{figures}");
@@ -160,6 +163,14 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
     assert!(
         (diameter_m - float(&live["fit"], "wheel_diameter_m")).abs() < 1e-9,
         "{figures}"
+    );
+    // The rollers' sideways slip, from the strafe legs: the world's 0.93 where the
+    // configuration said 1.
+    assert!(
+        (strafe - truth.lateral_factor).abs() < 0.01
+            && (config.robot.strafe_factor - 1.0).abs() < 1e-12,
+        "strafe factor {strafe:.4}, truth {:.4}\n{figures}",
+        truth.lateral_factor
     );
     // The team's own keys are kept, and the file is still a robot's file.
     assert_eq!(file["link"]["imu"].as_str(), Some("none"), "{text}");

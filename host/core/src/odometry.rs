@@ -2,7 +2,8 @@
 //!
 //! Per update (one telemetry batch, 50 Hz): tick deltas (wrapping i32 arithmetic, so the
 //! Mega's cumulative counters may overflow), wheel angle deltas Δφ = Δticks·2π/ticks_per_rev,
-//! the body's arc increment (du, dv, dθ) by mecanum forward kinematics, then the exact
+//! the body's arc increment (du, dv, dθ) by mecanum forward kinematics (dv scaled by
+//! `robot.strafe_factor`: the rollers' sideways slip), then the exact
 //! constant-curvature integration (the SE(2) exponential). The original (original-system.md
 //! §4.3) uses the same arc but rotates the chord by θ + dθ/2 although the chord formula is
 //! already in the start frame, so it over-rotates each step by dθ/2; here the chord is
@@ -76,6 +77,7 @@ pub struct OdometryStep {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Odometry {
     kinematics: Mecanum,
+    strafe_factor: f64,
     ticks_per_wheel_rev: f64,
     last_totals: Option<[i32; 4]>,
     pose: Pose2,
@@ -86,6 +88,7 @@ impl Odometry {
     pub fn new(robot: &RobotConfig) -> Self {
         Self {
             kinematics: Mecanum::new(robot),
+            strafe_factor: robot.strafe_factor,
             ticks_per_wheel_rev: robot.ticks_per_wheel_rev,
             last_totals: None,
             pose: Pose2::default(),
@@ -121,7 +124,8 @@ impl Odometry {
         let tick_deltas: [i32; 4] = std::array::from_fn(|i| totals[i].wrapping_sub(last[i]));
         let wheel_angle_deltas_rad =
             tick_deltas.map(|d| f64::from(d) * TAU / self.ticks_per_wheel_rev);
-        let arc = self.kinematics.forward(wheel_angle_deltas_rad);
+        let mut arc = self.kinematics.forward(wheel_angle_deltas_rad);
+        arc.vy_m_s *= self.strafe_factor;
         let body_increment = arc_displacement(arc.vx_m_s, arc.vy_m_s, arc.omega_rad_s);
         self.pose = self.pose.compose(body_increment.as_pose());
         let period_s = f64::from(period_us) * 1e-6;
@@ -221,6 +225,25 @@ mod tests {
         // A quarter turn in place. One tick on all four wheels is 3.9e-4 rad of yaw; the
         // totals are rounded to the nearest tick, so allow half of that.
         let mut odo = Odometry::new(&robot());
+        let p = drive(&mut odo, BodyTwist::new(0.0, 0.0, FRAC_PI_2), 50);
+        assert_near(p, Pose2::new(0.0, 0.0, FRAC_PI_2), 1e-6, 2e-4);
+    }
+
+    #[test]
+    fn a_strafe_counts_only_the_sideways_travel_the_rollers_give() {
+        let robot = RobotConfig {
+            strafe_factor: 0.93,
+            ..robot()
+        };
+        // 0.5 m of wheel travel to the left: 0.465 m on the floor; forward travel and
+        // turns keep the kinematics'.
+        let mut odo = Odometry::new(&robot);
+        let p = drive(&mut odo, BodyTwist::new(0.0, 0.25, 0.0), 100);
+        assert_near(p, Pose2::new(0.0, 0.465, 0.0), 1e-4, 1e-4);
+        let mut odo = Odometry::new(&robot);
+        let p = drive(&mut odo, BodyTwist::new(0.2, 0.0, 0.0), 250);
+        assert_near(p, Pose2::new(1.0, 0.0, 0.0), 1e-4, 1e-4);
+        let mut odo = Odometry::new(&robot);
         let p = drive(&mut odo, BodyTwist::new(0.0, 0.0, FRAC_PI_2), 50);
         assert_near(p, Pose2::new(0.0, 0.0, FRAC_PI_2), 1e-6, 2e-4);
     }

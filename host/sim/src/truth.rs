@@ -164,7 +164,7 @@ impl WorldTruth {
             beacon_errors_m: [[0.0; 2]; 4],
             wheel_radius_scale: [1.0; 4],
             turn_scale: 1.0,
-            lateral_factor: 1.0,
+            lateral_factor: config.robot.strafe_factor,
             gyro_scale: 1.0,
             gyro_bias_rad_s,
             motor_gain_scale: [1.0; 4],
@@ -300,10 +300,10 @@ impl WorldTruth {
         })
     }
 
-    /// The world's own constants: `beliefs` with the true mount, wheel geometry, range noise,
-    /// battery and body outline (its offset, [`Self::body_offset_m`], is the world's).
-    /// (Per-wheel radius differences, the range scale and offset, the lateral factor, the
-    /// gyro's scale and the motors' gains are applied by the world's parts.)
+    /// The world's own constants: `beliefs` with the true mount, wheel geometry, strafe
+    /// factor, range noise, battery and body outline (its offset, [`Self::body_offset_m`], is
+    /// the world's). (Per-wheel radius differences, the range scale and offset, the lateral
+    /// factor, the gyro's scale and the motors' gains are applied by the world's parts.)
     pub fn true_config(&self, beliefs: &Config) -> Config {
         let mut truth = beliefs.clone();
         let robot = &mut truth.robot;
@@ -313,6 +313,7 @@ impl WorldTruth {
         robot.wheel_diameter_m *= self.mean_wheel_radius_scale();
         robot.front_back_wheel_distance_m *= self.turn_scale;
         robot.left_right_wheel_distance_m *= self.turn_scale;
+        robot.strafe_factor = self.lateral_factor;
         truth.lidar.range_noise_std_m = self.lidar_noise_base_m;
         truth.motor.battery_voltage_v = self.battery_voltage_v;
         truth.robot.footprint_length_m = self.footprint_length_m;
@@ -623,6 +624,10 @@ mod tests {
         // Parts exactly centred against their walls, the body the config's centred outline.
         assert_eq!(truth.part_seats, [PartSeat::default(); 4]);
         assert_eq!(truth.body_offset_m, [0.0; 2]);
+        // A robot that believes its rollers lose a tenth of a strafe gets rollers that do.
+        let mut measured = beliefs.clone();
+        measured.robot.strafe_factor = 0.9;
+        assert_eq!(WorldTruth::draw(&measured, 0.0).lateral_factor, 0.9);
     }
 
     #[test]
@@ -718,6 +723,7 @@ mod tests {
         assert_eq!(world.motor.battery_voltage_v, truth.battery_voltage_v);
         assert_eq!(world.robot.footprint_length_m, truth.footprint_length_m);
         assert_eq!(world.robot.footprint_width_m, truth.footprint_width_m);
+        assert_eq!(world.robot.strafe_factor, truth.lateral_factor);
         // What the robot decides with is untouched.
         assert_eq!(world.navigation, beliefs.navigation);
         assert_eq!(world.localisation, beliefs.localisation);

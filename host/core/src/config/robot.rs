@@ -16,6 +16,12 @@ pub struct RobotConfig {
     pub left_right_wheel_distance_m: f64,
     /// Wheel diameter, m. 0.060: original (§1.3, §2.2), all four wheels.
     pub wheel_diameter_m: f64,
+    /// Sideways (strafe) travel over what the wheels' kinematics says: a mecanum wheel's
+    /// rollers slip sideways, so a strafe falls short (about 0.93 typical, 0.85 harsh, worse
+    /// on carpet: real-world-errors.md). The odometry scales its sideways travel by it. 1.0:
+    /// the kinematics, for a robot not yet measured; `ratf calibrate odometry` fits it from
+    /// the strafe legs of its drive and writes it.
+    pub strafe_factor: f64,
     /// Body length along the robot's x (forward), m. 0.30: the competition's 30 × 30 cm
     /// robot (paper §III).
     pub footprint_length_m: f64,
@@ -55,6 +61,7 @@ impl Default for RobotConfig {
             front_back_wheel_distance_m: 0.152,
             left_right_wheel_distance_m: 0.193,
             wheel_diameter_m: 0.060,
+            strafe_factor: 1.0,
             footprint_length_m: 0.30,
             footprint_width_m: 0.30,
             wheel_forward_sign: [1, -1, 1, -1],
@@ -175,6 +182,14 @@ impl RobotConfig {
             0.30,
             "m",
             "a wheel of the 30 cm tall robot (competition.md §2); speeds divide by it",
+        );
+        c.within(
+            "strafe_factor",
+            self.strafe_factor,
+            0.5,
+            1.1,
+            "",
+            "mecanum rollers lose sideways travel (about 0.93, 0.5 on carpet), they do not add it",
         );
         const FOOTPRINT: &str = "the rules' 30 cm at the start (competition.md §2), and up to \
                                  10 cm more unfolded later (checked only at the start since 2024)";

@@ -136,8 +136,8 @@ pub struct OdometryFit {
     pub radius_factor: f64,
     /// True lx + ly over the believed.
     pub lx_plus_ly_factor: f64,
-    /// Strafe travel over the (radius-corrected) odometry's: the rollers' lateral slip,
-    /// reported, not written (the odometry has no key for it).
+    /// Strafe travel over the (radius-corrected) odometry's: the rollers' lateral slip
+    /// beyond what `robot.strafe_factor` already says (1 when it is right).
     pub strafe_factor: f64,
     /// The wheel diameter to write, m (`robot.wheel_diameter_m`).
     pub wheel_diameter_m: f64,
@@ -227,13 +227,15 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
 }
 
 impl OdometryFit {
-    /// Write the fit into `config`: the wheel diameter, and both wheel distances scaled
-    /// together (their ratio is the drawing's; only their sum matters to the odometry).
+    /// Write the fit into `config`: the wheel diameter, both wheel distances scaled
+    /// together (their ratio is the drawing's; only their sum matters to the odometry), and
+    /// the strafe factor.
     pub fn apply(&self, config: &mut Config) {
         let robot = &mut config.robot;
         robot.wheel_diameter_m = self.wheel_diameter_m;
         robot.front_back_wheel_distance_m *= self.lx_plus_ly_factor;
         robot.left_right_wheel_distance_m *= self.lx_plus_ly_factor;
+        robot.strafe_factor *= self.strafe_factor;
     }
 
     /// Set the keys [`OdometryFit::apply`] changes in `file`, a configuration file's table
@@ -246,6 +248,7 @@ impl OdometryFit {
             ("wheel_diameter_m", r.wheel_diameter_m),
             ("front_back_wheel_distance_m", r.front_back_wheel_distance_m),
             ("left_right_wheel_distance_m", r.left_right_wheel_distance_m),
+            ("strafe_factor", r.strafe_factor),
         ] {
             super::set_config_key(file, "robot", key, value.into());
         }
@@ -283,6 +286,28 @@ mod tests {
         fit.apply(&mut fitted);
         let sum = fitted.robot.half_wheelbase_sum_m();
         assert!((sum - config.robot.half_wheelbase_sum_m() * b).abs() < 1e-3);
+        assert!(
+            (fitted.robot.strafe_factor - strafe).abs() < 1e-2,
+            "{fitted:?}"
+        );
+        // Driven again by a robot that believes the fit, its odometry strafes as far as the
+        // beacons see: nothing left to correct, and the written factor stays.
+        let believed = |o: Pose2| Pose2::new(o.x, o.y * strafe, o.yaw_rad);
+        let again: Vec<Leg> = legs
+            .iter()
+            .map(|l| Leg {
+                odometry: believed(l.odometry),
+                beacons: l.beacons,
+            })
+            .collect();
+        let refit = super::fit(&again, &fitted).unwrap();
+        assert!((refit.strafe_factor - 1.0).abs() < 1e-2, "{refit:?}");
+        let mut twice = fitted.clone();
+        refit.apply(&mut twice);
+        assert!(
+            (twice.robot.strafe_factor - strafe).abs() < 1e-2,
+            "{twice:?}"
+        );
     }
 
     #[test]

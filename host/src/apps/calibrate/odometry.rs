@@ -261,6 +261,12 @@ pub struct SimOdometry {
     pub uncalibrated_radius_error_pct: f64,
     /// The same before calibrating.
     pub uncalibrated_lx_plus_ly_error_pct: f64,
+    /// The strafe factor to write (`robot.strafe_factor`).
+    pub strafe_factor: f64,
+    /// The world's true strafe factor.
+    pub true_strafe_factor: f64,
+    /// The strafe factor to write minus the true one.
+    pub strafe_factor_error: f64,
     /// How well the legs agree with the fit (stops with a beacon fix among them).
     pub agreement: Agreement,
     /// Collisions during the odometry drive.
@@ -327,6 +333,9 @@ pub fn run_in_sim(
             robot.robot.half_wheelbase_sum_m(),
             true_lx_plus_ly_m,
         ),
+        strafe_factor: robot.robot.strafe_factor * fit.strafe_factor,
+        true_strafe_factor: truth.lateral_factor,
+        strafe_factor_error: robot.robot.strafe_factor * fit.strafe_factor - truth.lateral_factor,
         agreement,
         collisions: world.stats().collisions,
         truth,

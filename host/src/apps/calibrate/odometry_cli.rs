@@ -216,7 +216,8 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         let f = &run.fit;
         std::println!(
             "seed {seed}: wheel diameter {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); \
-             lx+ly {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); strafe ×{:.3}; \
+             lx+ly {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); strafe factor {:.3} \
+             (truth {:.3}); \
              {} of {} stops fixed, {:.2} m straight, {:.2} rad turned, residual {:.1} mm, \
              {} collisions",
             f.wheel_diameter_m,
@@ -227,7 +228,8 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
             run.true_lx_plus_ly_m,
             run.lx_plus_ly_error_pct,
             run.uncalibrated_lx_plus_ly_error_pct,
-            f.strafe_factor,
+            run.strafe_factor,
+            run.true_strafe_factor,
             run.agreement.fixed_stops[0],
             run.agreement.fixed_stops[1],
             f.straight_m,
@@ -244,7 +246,8 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
     };
     std::println!(
         "{} seeds ({} world): |wheel radius error| mean {:.3} %, worst {:.3} % (before: worst \
-         {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %)",
+         {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %); \
+         |strafe factor error| mean {:.3}, worst {:.3} (before: worst {:.3})",
         runs.len(),
         config.sim.world,
         mean(&|r| r.radius_error_pct),
@@ -253,6 +256,9 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         mean(&|r| r.lx_plus_ly_error_pct),
         worst(&|r| r.lx_plus_ly_error_pct),
         worst(&|r| r.uncalibrated_lx_plus_ly_error_pct),
+        mean(&|r| r.strafe_factor_error),
+        worst(&|r| r.strafe_factor_error),
+        worst(&|r| config.robot.strafe_factor - r.true_strafe_factor),
     );
     if let Some(path) = &args.record {
         std::println!("recorded the odometry drive to {}", path.display());
@@ -357,9 +363,13 @@ fn report(args: &OdometryArgs, run: &RobotOdometry, file: toml::Table) -> Result
         f.lx_plus_ly_factor
     );
     std::println!(
-        "strafe ×{:.3} (reported, not written); {:.2} m straight, {:.2} rad turned; residuals \
-         {:.1} mm straight, {:.3}° turning",
-        f.strafe_factor,
+        "strafe factor  {:.3} (configured {:.3}; ×{:.3})",
+        robot.strafe_factor * f.strafe_factor,
+        robot.strafe_factor,
+        f.strafe_factor
+    );
+    std::println!(
+        "{:.2} m straight, {:.2} rad turned; residuals {:.1} mm straight, {:.3}° turning",
         f.straight_m,
         f.turned_rad,
         a.straight_residual_m * 1e3,
