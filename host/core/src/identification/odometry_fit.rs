@@ -138,11 +138,14 @@ pub struct OdometryFit {
     pub lx_plus_ly_factor: f64,
     /// Strafe travel over the (radius-corrected) odometry's: the rollers' lateral slip
     /// beyond what `robot.strafe_factor` already says (1 when it is right).
-    pub strafe_factor: f64,
+    pub strafe_correction: f64,
     /// The wheel diameter to write, m (`robot.wheel_diameter_m`).
     pub wheel_diameter_m: f64,
     /// lx + ly to write, m (front-back and left-right distances scaled together).
     pub lx_plus_ly_m: f64,
+    /// The strafe factor to write (`robot.strafe_factor`): the believed one times the
+    /// correction.
+    pub strafe_factor: f64,
     /// Distance driven straight over the legs used, m (odometry).
     pub straight_m: f64,
     /// Angle turned in place over the legs used, rad (odometry).
@@ -196,7 +199,7 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
         return Err(OdometryFitError::TooLittleTurning(turned_rad));
     }
     let radius_factor = xt / xx;
-    let strafe_factor = if yy > 0.0 {
+    let strafe_correction = if yy > 0.0 {
         yt / yy / radius_factor
     } else {
         1.0
@@ -208,7 +211,7 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
         .filter(|l| l.odometry.yaw_rad.abs() < STRAIGHT_LEG_MAX_TURN_RAD)
         .map(|l| {
             let dx = l.beacons.x - radius_factor * l.odometry.x;
-            let dy = l.beacons.y - radius_factor * strafe_factor * l.odometry.y;
+            let dy = l.beacons.y - radius_factor * strafe_correction * l.odometry.y;
             dx.hypot(dy)
         })
         .collect();
@@ -217,9 +220,10 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
     Ok(OdometryFit {
         radius_factor,
         lx_plus_ly_factor,
-        strafe_factor,
+        strafe_correction,
         wheel_diameter_m: config.robot.wheel_diameter_m * radius_factor,
         lx_plus_ly_m: config.robot.half_wheelbase_sum_m() * lx_plus_ly_factor,
+        strafe_factor: config.robot.strafe_factor * strafe_correction,
         straight_m,
         turned_rad,
         residual_m,
@@ -235,7 +239,7 @@ impl OdometryFit {
         robot.wheel_diameter_m = self.wheel_diameter_m;
         robot.front_back_wheel_distance_m *= self.lx_plus_ly_factor;
         robot.left_right_wheel_distance_m *= self.lx_plus_ly_factor;
-        robot.strafe_factor *= self.strafe_factor;
+        robot.strafe_factor = self.strafe_factor;
     }
 
     /// Set the keys [`OdometryFit::apply`] changes in `file`, a configuration file's table
@@ -281,7 +285,7 @@ mod tests {
         let fit = fit(&legs, &config).unwrap();
         assert!((fit.radius_factor - a).abs() < 1e-4, "{fit:?}");
         assert!((fit.lx_plus_ly_factor - b).abs() < 1e-3, "{fit:?}");
-        assert!((fit.strafe_factor - strafe).abs() < 1e-2, "{fit:?}");
+        assert!((fit.strafe_correction - strafe).abs() < 1e-2, "{fit:?}");
         let mut fitted = config.clone();
         fit.apply(&mut fitted);
         let sum = fitted.robot.half_wheelbase_sum_m();
@@ -301,7 +305,7 @@ mod tests {
             })
             .collect();
         let refit = super::fit(&again, &fitted).unwrap();
-        assert!((refit.strafe_factor - 1.0).abs() < 1e-2, "{refit:?}");
+        assert!((refit.strafe_correction - 1.0).abs() < 1e-2, "{refit:?}");
         let mut twice = fitted.clone();
         refit.apply(&mut twice);
         assert!(

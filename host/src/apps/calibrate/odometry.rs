@@ -261,8 +261,6 @@ pub struct SimOdometry {
     pub uncalibrated_radius_error_pct: f64,
     /// The same before calibrating.
     pub uncalibrated_lx_plus_ly_error_pct: f64,
-    /// The strafe factor to write (`robot.strafe_factor`).
-    pub strafe_factor: f64,
     /// The world's true strafe factor.
     pub true_strafe_factor: f64,
     /// The strafe factor to write minus the true one.
@@ -333,9 +331,8 @@ pub fn run_in_sim(
             robot.robot.half_wheelbase_sum_m(),
             true_lx_plus_ly_m,
         ),
-        strafe_factor: robot.robot.strafe_factor * fit.strafe_factor,
         true_strafe_factor: truth.lateral_factor,
-        strafe_factor_error: robot.robot.strafe_factor * fit.strafe_factor - truth.lateral_factor,
+        strafe_factor_error: fit.strafe_factor - truth.lateral_factor,
         agreement,
         collisions: world.stats().collisions,
         truth,
@@ -461,9 +458,10 @@ mod tests {
         let fit = OdometryFit {
             radius_factor: 1.002,
             lx_plus_ly_factor: 1.01,
-            strafe_factor: 0.95,
+            strafe_correction: 0.95,
             wheel_diameter_m: 0.1,
             lx_plus_ly_m: 0.4,
+            strafe_factor: 0.95,
             straight_m: 4.3,
             turned_rad: 6.2,
             residual_m: 0.001,

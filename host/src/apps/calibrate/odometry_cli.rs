@@ -228,7 +228,7 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
             run.true_lx_plus_ly_m,
             run.lx_plus_ly_error_pct,
             run.uncalibrated_lx_plus_ly_error_pct,
-            run.strafe_factor,
+            f.strafe_factor,
             run.true_strafe_factor,
             run.agreement.fixed_stops[0],
             run.agreement.fixed_stops[1],
@@ -364,9 +364,9 @@ fn report(args: &OdometryArgs, run: &RobotOdometry, file: toml::Table) -> Result
     );
     std::println!(
         "strafe factor  {:.3} (configured {:.3}; ×{:.3})",
-        robot.strafe_factor * f.strafe_factor,
+        f.strafe_factor,
         robot.strafe_factor,
-        f.strafe_factor
+        f.strafe_correction
     );
     std::println!(
         "{:.2} m straight, {:.2} rad turned; residuals {:.1} mm straight, {:.3}° turning",
