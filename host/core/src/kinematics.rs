@@ -28,9 +28,9 @@
 //! * The geometry is rigid: the rollers' sideways slip (`robot.strafe_factor`) is applied by
 //!   the odometry alone, so a commanded strafe gives that factor of its speed and the
 //!   follower's feedback makes up the rest. Commanding through it (inverse kinematics
-//!   dividing vy by the factor, the wheel budget counting |vy| / factor) was measured in a
-//!   variant of `bench rounds --calibrated` whose robots also ran the odometry drive and
-//!   believed its fit (the factor 0.93 in the realistic world): rounds 1.0 / 0.6 / 0.5 s
+//!   dividing vy by the factor, the wheel budget counting |vy| / factor) was measured with
+//!   `bench rounds --calibrated`, whose robots believe the odometry drive's fit (the factor
+//!   0.93 in the realistic world): rounds 1.0 / 0.6 / 0.5 s
 //!   faster on seeds 11–60 and 61–110 alike, but 7 and 6 collisions against 0 and 1,
 //!   carried parts touching a divider on entering their drop: the strafe along the row ran
 //!   about 6 mm past the drop before turning down into it (seed 70, round 2). Not kept

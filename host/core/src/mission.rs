@@ -36,7 +36,10 @@
 //! switch then reads open with the robot at its drop pose, or up to
 //! [`LET_GO_SHORT_OF_DROP_M`] short of it, and the mission releases and backs out as after an
 //! arrival instead of searching for the part (it searched the slot's dividers and gave the
-//! placed part up). So does a part that slips off there: it can only stand in the slot.
+//! placed part up). A part that slips off the magnet while the robot drives is looked for,
+//! also near its drop: it lands ahead of the moving robot, turned and off to a side, and the
+//! robot pushes it on; only a part let go in place stands in its slot (round 2 at seed 4,
+//! part slip 3 cm short of machine B's input: taken for placed, it lay there unscored).
 
 mod jam;
 mod search;
@@ -349,12 +352,15 @@ enum State {
         since_us: u64,
     },
     /// Carrying the part to its drop slot, or with `returning` back to its pick slot (the
-    /// drop was given up); `open_since_us`: since when the switch is open.
+    /// drop was given up); `open_since_us`: since when the switch is open; `after_hold`: the
+    /// core held the robot since the switch last read closed (and may have let the magnet go
+    /// with the robot standing).
     ToDrop {
         action: Action,
         returning: bool,
         since_us: u64,
         open_since_us: Option<u64>,
+        after_hold: bool,
     },
     /// The part fell off: looking for it (the search is the mission's `search`).
     Regripping { action: Action },
@@ -617,10 +623,12 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             State::ToDrop {
                 since_us,
                 open_since_us,
+                after_hold,
                 ..
             } => {
                 later(since_us);
                 *open_since_us = None;
+                *after_hold = true;
             }
             State::Regripping { .. } | State::Idle | State::Finished => {}
         }
@@ -760,6 +768,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             returning,
             since_us: now_us,
             open_since_us: None,
+            after_hold: false,
         };
     }
 
@@ -1019,17 +1028,20 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 returning,
                 since_us,
                 open_since_us,
+                after_hold,
             } => {
                 let target = Self::carry_target(action, returning);
                 let open_since_us = (self.config.watch_carried_part && !switch)
                     .then(|| open_since_us.unwrap_or(now_us));
+                // The part still held after the hold: a later opening is a slip.
+                let after_hold = after_hold && !switch;
                 if switch {
                     self.trail.push(now_us, pose);
                 }
                 if let Some(open_us) = open_since_us
                     && Self::elapsed_s(now_us, open_us) >= self.config.lost_part_debounce_s
                 {
-                    if self.at_drop(pose, target) {
+                    if after_hold && self.at_drop(pose, target) {
                         // Let go at the drop (a hold took the magnet): the part is in its slot.
                         self.solenoid_on = false;
                         self.state = State::Releasing {
@@ -1061,6 +1073,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     returning,
                     since_us,
                     open_since_us,
+                    after_hold,
                 };
                 if !returning && switch && self.jammed(now_us, pose, action.drop) {
                     self.reseats += 1;
@@ -1576,50 +1589,66 @@ mod tests {
     /// drop and let the magnet go, which left the part in its slot; the switch read open once
     /// the lidar was back, and the mission searched the slot's dividers for the part (five
     /// collisions) and gave it up. With the robot at most [`LET_GO_SHORT_OF_DROP_M`] short of
-    /// the drop pose, the part is placed there; further off, it is looked for.
+    /// the drop pose after a hold, the part is placed there; further off, it is looked for.
+    /// Part slip, round 2 at seed 4: the part fell off the moving robot 3 cm short of machine
+    /// B's input and was taken for placed, where it lay unscored; a part that falls off
+    /// while the robot drives is looked for, also at its drop pose.
     #[test]
-    fn a_part_let_go_at_its_drop_pose_is_placed_and_further_off_looked_for() {
-        // The carry's third tick: the switch opens; the robot stops where it finds the loss.
-        let run = |slot_poses: BTreeMap<WaypointId, Pose2>| {
+    fn a_part_let_go_in_a_hold_at_its_drop_pose_is_placed_and_one_that_slipped_looked_for() {
+        // After two ticks of the carry the switch opens: with `held`, during ten ticks in
+        // which the core holds the robot (and lets the magnet go); without, as it drives on.
+        // The robot stops where it finds the loss.
+        let run = |slot_poses: BTreeMap<WaypointId, Pose2>, held: bool| {
             let mut m = mission_with_slots(vec![A], slot_poses);
             m.navigator.extra_ticks = 20;
-            let (mut carry_ticks, mut carrying) = (0, None);
-            let events = run_along(
-                &mut m,
-                |state, magnet, pose| match state {
+            let (mut carry_ticks, mut held_ticks, mut stopped_at) = (0, 0, None);
+            let (mut events, mut pose) = (Vec::new(), Pose2::default());
+            for k in 0..1500u32 {
+                let now = u64::from(k) * 20_000;
+                let carrying = matches!(m.state, State::ToDrop { .. });
+                if carrying && held && carry_ticks == 2 && held_ticks < 10 {
+                    m.hold(now);
+                    held_ticks += 1;
+                    continue;
+                }
+                let pressed = match m.state {
                     State::ToPick { .. } | State::Gripping { .. } => true,
                     State::ToDrop { .. } => {
                         carry_ticks += 1;
-                        carrying = Some(pose);
-                        magnet && carry_ticks < 3
+                        stopped_at = Some(pose);
+                        m.solenoid_on && carry_ticks < 3
                     }
                     _ => false,
-                },
-                1500,
-            );
-            (m, events, carrying)
+                };
+                let out = m.tick(now, pose, pressed);
+                pose = moved(pose, out.twist);
+                events.extend(out.events);
+            }
+            (m, events, stopped_at)
         };
-        let (_, _, found_lost_at) = run(BTreeMap::new());
-        let robot = found_lost_at.unwrap();
-        // The drop's pick pose `offset` from where the robot found the part gone.
-        let at = |offset: Pose2| BTreeMap::from([(A.drop, robot.compose(offset))]);
-        for (drop_pose, placed) in [
-            (at(Pose2::new(0.0, 0.0, 0.0)), true),
-            (at(Pose2::new(0.025, -0.01, 0.1)), true),
-            (at(Pose2::new(0.04, 0.0, 0.0)), false),
-            (at(Pose2::new(-0.02, 0.0, 0.0)), false),
-            (at(Pose2::new(0.0, 0.02, 0.0)), false),
-            (at(Pose2::new(0.0, 0.0, 0.3)), false),
-        ] {
-            let (m, events, _) = run(drop_pose.clone());
-            assert_eq!(
-                events.contains(&MissionEvent::PartSlipped),
-                !placed,
-                "{drop_pose:?}: {events:?}"
-            );
-            assert_eq!(m.actions().outcomes, [(A, placed)], "{drop_pose:?}");
-            if placed {
-                assert!(events.contains(&MissionEvent::Placed { slot: A.drop }));
+        for held in [true, false] {
+            let robot = run(BTreeMap::new(), held).2.unwrap();
+            // The drop's pick pose `offset` from where the robot found the part gone.
+            let at = |offset: Pose2| BTreeMap::from([(A.drop, robot.compose(offset))]);
+            for (drop_pose, let_go_there) in [
+                (at(Pose2::new(0.0, 0.0, 0.0)), true),
+                (at(Pose2::new(0.025, -0.01, 0.1)), true),
+                (at(Pose2::new(0.04, 0.0, 0.0)), false),
+                (at(Pose2::new(-0.02, 0.0, 0.0)), false),
+                (at(Pose2::new(0.0, 0.02, 0.0)), false),
+                (at(Pose2::new(0.0, 0.0, 0.3)), false),
+            ] {
+                let placed = held && let_go_there;
+                let (m, events, _) = run(drop_pose.clone(), held);
+                assert_eq!(
+                    events.contains(&MissionEvent::PartSlipped),
+                    !placed,
+                    "held {held}, {drop_pose:?}: {events:?}"
+                );
+                assert_eq!(m.actions().outcomes, [(A, placed)], "{drop_pose:?}");
+                if placed {
+                    assert!(events.contains(&MissionEvent::Placed { slot: A.drop }));
+                }
             }
         }
     }

@@ -281,8 +281,8 @@ impl RouteDriver {
 }
 
 /// Run every seed of `seeds` in both conditions; `on_run` hears about each finished run. With
-/// `calibrated`, each seed's world is first calibrated ([`calibrate::run_in_sim`], with the
-/// tape measures) and both estimators believe the calibration.
+/// `calibrated`, each seed's world is first calibrated ([`calibrate::beliefs`]: the lidar
+/// and beacons, then the wheels) and both estimators believe the calibration.
 pub fn run(
     config: &Config,
     seeds: std::ops::RangeInclusive<u64>,

@@ -30,7 +30,6 @@ use crate::devices::realtime::Paced;
 use crate::recording::{Recorder, RecordingError, Session};
 use crate::referee::client::{LinkError, RefereeLink};
 use crate::referee::server::MockServer;
-use ratf_core::calibration::CalibrationError;
 use ratf_core::config::{Config, Policy, WorldProfile};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
@@ -708,12 +707,13 @@ pub struct BenchRow {
 /// What a rounds benchmark tells as it goes.
 #[derive(Debug)]
 pub enum BenchProgress<'a> {
-    /// A seed's calibration was refused: its robot keeps the configuration as written.
+    /// A seed's calibration was refused: its robot keeps what it believed before the refused
+    /// step.
     CalibrationRefused {
         /// The seed.
         seed: u64,
-        /// Why.
-        error: &'a CalibrationError,
+        /// Which step, and why.
+        error: &'a calibrate::DayRefusal,
     },
     /// A round finished.
     Run(&'a RoundReport),

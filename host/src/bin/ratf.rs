@@ -350,8 +350,8 @@ struct FaultsBenchArgs {
     /// in order.
     #[arg(long)]
     verbose: bool,
-    /// Calibrate each seed's world first (the calibration drive with tape measures); the
-    /// robot believes the calibration.
+    /// Calibrate each seed's world first (the calibration drive with tape measures, then
+    /// the odometry drive); the robot believes the calibration.
     #[arg(long)]
     calibrated: bool,
 }
@@ -399,8 +399,8 @@ struct RoundsBenchArgs {
     /// Machine processing time, s.
     #[arg(long, default_value_t = 0.0)]
     machine_delay_s: f64,
-    /// Calibrate each seed's world first (the calibration drive with tape measures) and
-    /// run both policies with the calibrated configuration.
+    /// Calibrate each seed's world first (the calibration drive with tape measures, then
+    /// the odometry drive) and run both policies with the calibrated configuration.
     #[arg(long)]
     calibrated: bool,
 }
@@ -424,8 +424,8 @@ struct LocBenchArgs {
     /// seeds other than those anything was tuned on).
     #[arg(long, default_value_t = 1)]
     first_seed: u64,
-    /// Calibrate each seed's world first (the calibration drive with tape measures) and
-    /// run both estimators with the calibrated configuration.
+    /// Calibrate each seed's world first (the calibration drive with tape measures, then
+    /// the odometry drive) and run both estimators with the calibrated configuration.
     #[arg(long)]
     calibrated: bool,
 }
@@ -508,7 +508,7 @@ struct SimArgs {
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
     /// Calibrate first, as a team does on the day (`ratf calibrate`'s drive with tape
-    /// measures in this seed's world), and run the round with the calibrated beliefs. The
+    /// measures, then `ratf calibrate odometry`'s drive, in this seed's world), and run the round with the calibrated beliefs. The
     /// world is drawn around `--config`: give the file as written, not a calibrated one
     /// (that would draw a new hall around the calibration).
     #[arg(long, conflicts_with = "serve_pty")]
@@ -1279,9 +1279,12 @@ fn sim_round(
             ratf_host::apps::calibrate::beliefs(&options.apply_to(&config), true)?;
         match refused {
             Some(error) => println!(
-                "calibration refused ({error}): the robot keeps the configuration as written"
+                "calibration refused ({error}): the robot keeps what it believed before that step"
             ),
-            None => println!("calibrated: the robot believes the calibration drive's fit"),
+            None => println!(
+                "calibrated: the robot believes the calibration drive's fit (lidar and beacons), \
+                 then the odometry drive's (wheels)"
+            ),
         }
         beliefs
     } else {
@@ -1600,7 +1603,8 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
             round::BenchProgress::CalibrationRefused { seed, error } => {
                 refused += 1;
                 eprintln!(
-                    "seed {seed}: calibration refused, the robot keeps its configuration: {error}"
+                    "seed {seed}: calibration refused, the robot keeps what it believed before: \
+                     {error}"
                 );
             }
             round::BenchProgress::Run(r) => eprintln!(

@@ -190,11 +190,54 @@ pub fn run_in_sim(
     })
 }
 
+/// A calibration the simulated team's day refused: the robot keeps what it believed before
+/// that step.
+#[derive(Debug, thiserror::Error)]
+pub enum DayRefusal {
+    /// The lidar and beacons' fit was refused: the robot keeps the configuration as written
+    /// (the odometry drive rests on the lidar, so it is not driven).
+    #[error("the lidar calibration: {0}")]
+    Lidar(CalibrationError),
+    /// The odometry drive's fit was refused: the robot keeps the lidar calibration.
+    #[error("the odometry calibration: {0}")]
+    Odometry(Box<odometry::OdometryCalibrateError>),
+}
+
 /// What the robot believes in the world of `config` (its `[sim] seed`): with `calibrate`,
-/// the configuration after the calibration drive (with all the day's measures); when the fit is
-/// refused, the configuration as written, as on the day for a team with no time to drive
-/// again, and the refusal beside it.
+/// the configuration after the team's day, as the README's "On the robot" has it: the
+/// calibration drive with all the day's measures (`ratf calibrate`), then the odometry
+/// drive (`ratf calibrate odometry`) by the robot that believes it, its fit checked as on
+/// the robot ([`odometry::Agreement::check`]). A refused fit leaves
+/// the robot with what it believed before that step, as on the day for a team with no time
+/// to drive again, and the refusal beside it.
 pub fn beliefs(
+    config: &Config,
+    calibrate: bool,
+) -> Result<(Config, Option<DayRefusal>), CalibrateError> {
+    let (mut beliefs, refused) = lidar_beliefs(config, calibrate)?;
+    if !calibrate {
+        return Ok((beliefs, None));
+    }
+    if let Some(refused) = refused {
+        return Ok((beliefs, Some(DayRefusal::Lidar(refused))));
+    }
+    let refused = match odometry::drive_in_sim(config, &beliefs, None) {
+        Ok(run) => match run.agreement.check(&run.fit) {
+            Ok(()) => {
+                run.fit.apply(&mut beliefs);
+                return Ok((beliefs, None));
+            }
+            Err(refusal) => refusal.into(),
+        },
+        Err(odometry::OdometryCalibrateError::Drive(error)) => return Err(error),
+        Err(refused) => refused,
+    };
+    Ok((beliefs, Some(DayRefusal::Odometry(Box::new(refused)))))
+}
+
+/// What the robot believes after the calibration drive alone (the lidar and the beacons),
+/// as [`beliefs`] has it.
+fn lidar_beliefs(
     config: &Config,
     calibrate: bool,
 ) -> Result<(Config, Option<CalibrationError>), CalibrateError> {
@@ -292,11 +335,44 @@ impl CalibrationSummary {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_calibration_drive_is_collision_free_and_recovers_the_mount_yaw_in_the_realistic_world() {
+    /// The defaults in the realistic world of seed 3.
+    fn realistic_seed_3() -> Config {
         let mut config = Config::default();
         config.sim.world = WorldProfile::Realistic;
         config.sim.seed = 3;
+        config
+    }
+
+    #[test]
+    fn the_day_s_beliefs_end_with_the_odometry_drive_s_wheels_and_rollers() {
+        let config = realistic_seed_3();
+        let lidar = run_in_sim(&config, DayMeasures::ALL).unwrap();
+        let (believed, refused) = beliefs(&config, true).unwrap();
+        assert!(refused.is_none(), "{refused:?}");
+        // The lidar's fit is kept...
+        assert_eq!(believed.lidar.range_scale, lidar.calibration.range_scale);
+        // ...and the wheels are the world's, not the drawing's: the rollers' strafe (0.93
+        // in the realistic world) within 0.01, the wheel radius within 0.3 %.
+        let truth = lidar.truth;
+        assert!(
+            (believed.robot.strafe_factor - truth.lateral_factor).abs() < 0.01,
+            "{} vs {}",
+            believed.robot.strafe_factor,
+            truth.lateral_factor
+        );
+        let true_diameter_m = config.robot.wheel_diameter_m * truth.mean_wheel_radius_scale();
+        assert!(
+            (believed.robot.wheel_diameter_m / true_diameter_m - 1.0).abs() < 0.003,
+            "{} vs {true_diameter_m}",
+            believed.robot.wheel_diameter_m
+        );
+        // Uncalibrated, the robot keeps the configuration as written.
+        assert_eq!(beliefs(&config, false).unwrap().0, config);
+    }
+
+    #[test]
+    fn the_calibration_drive_is_collision_free_and_recovers_the_mount_yaw_in_the_realistic_world() {
+        let config = realistic_seed_3();
         let run = run_in_sim(&config, DayMeasures::ALL).unwrap();
         assert_eq!(run.collisions, 0);
         assert_eq!(run.stops, 9);

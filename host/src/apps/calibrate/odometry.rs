@@ -3,7 +3,7 @@
 //! and lx + ly fitted ([`ratf_core::identification::odometry_fit`]).
 //!
 //! Three ways to the same fit: in the simulator ([`run_in_sim`]: the lidar calibrated first,
-//! the calibration drive with tape measures, [`super::beliefs`]; the world's truth beside
+//! the calibration drive with tape measures; the world's truth beside
 //! the fit), on the robot's devices ([`run_on_robot`]: recorded, the lidar calibrated
 //! beforehand by `ratf calibrate --robot`), and from such a recording ([`from_recording`]:
 //! the core re-run over the recorded inputs, which hold the drive's commands, with the same
@@ -16,7 +16,7 @@ use serde::Serialize;
 
 use super::drive::{StopCollector, drive_and_collect};
 use super::robot::{RobotCalibrateError, RobotDrive, drive_on_robot, open_recorder};
-use super::{CalibrateError, beliefs};
+use super::{CalibrateError, lidar_beliefs};
 use crate::apps::scripts::odometry_drive;
 use crate::devices::Shared;
 use crate::recording::{RecordedInputs, Recording, RecordingError};
@@ -281,10 +281,20 @@ pub fn run_in_sim(
     config: &Config,
     record: Option<&Path>,
 ) -> Result<SimOdometry, OdometryCalibrateError> {
-    let (robot, refused) = beliefs(config, true)?;
+    let (robot, refused) = lidar_beliefs(config, true)?;
     if let Some(refused) = refused {
         return Err(OdometryCalibrateError::Lidar(refused));
     }
+    drive_in_sim(config, &robot, record)
+}
+
+/// Drive the odometry drive in the world of `config` by a robot that believes `robot` (its
+/// lidar calibrated) and fit; compare with the truth. With `record`, as [`run_in_sim`].
+pub fn drive_in_sim(
+    config: &Config,
+    robot: &Config,
+    record: Option<&Path>,
+) -> Result<SimOdometry, OdometryCalibrateError> {
     let (script, windows) = odometry_drive();
     let windows_len = windows.len();
     let scenario = Scenario {
@@ -292,9 +302,9 @@ pub fn run_in_sim(
         ..Scenario::new(config)
     };
     let devices = SimDevices::new(config, &scenario).map_err(CalibrateError::from)?;
-    let mut core = Core::new(&robot, script.start).map_err(CalibrateError::from)?;
+    let mut core = Core::new(robot, script.start).map_err(CalibrateError::from)?;
     let mut recorder = record
-        .map(|path| open_recorder(&robot, script.start, RECORDING_KIND, path))
+        .map(|path| open_recorder(robot, script.start, RECORDING_KIND, path))
         .transpose()
         .map_err(Box::new)?;
     let mut taps: Vec<&mut dyn Tap> = recorder.iter_mut().map(|r| r as &mut dyn Tap).collect();
@@ -303,7 +313,7 @@ pub fn run_in_sim(
         devices,
         &script,
         windows,
-        &robot,
+        robot,
         &mut taps,
         || false,
     )
@@ -312,7 +322,7 @@ pub fn run_in_sim(
     if let Some(recorder) = recorder {
         recorder.finish().map_err(Box::new)?;
     }
-    let (fit, agreement) = fit_stops(&driven.stops, windows_len, &robot)?;
+    let (fit, agreement) = fit_stops(&driven.stops, windows_len, robot)?;
     let world = driven.devices.world();
     let truth = world.truth().clone();
     let true_wheel_diameter_m = config.robot.wheel_diameter_m * truth.mean_wheel_radius_scale();
