@@ -127,7 +127,7 @@ pub enum FaultProgress<'a> {
 
 /// Every row of `injections` over rounds 1–3 and `seeds`, our policy, in the world of
 /// `config`. With `calibrated`, each seed's robot first believes its calibration
-/// ([`calibrate::beliefs`]; a refused calibration keeps the configuration as written).
+/// ([`calibrate::beliefs`]; a refused step keeps the beliefs from before it).
 pub fn bench(
     config: &Config,
     seeds: std::ops::RangeInclusive<u64>,

@@ -182,7 +182,8 @@ pub struct Figures {
     pub ours: EstimatorFigures,
     /// The original filter.
     pub original: EstimatorFigures,
-    /// Seeds whose calibration was refused (their runs use the configuration as written).
+    /// Seeds whose calibration was refused at a step (their runs keep the beliefs from before
+    /// it: [`calibrate::DayRefusal`]).
     pub calibrations_refused: u32,
 }
 

@@ -1060,7 +1060,7 @@ fn loc_bench_command(
     row("original", "faults", &figures.original.faults);
     if *calibrated {
         println!(
-            "calibrations refused: {} (those runs use the configuration as written)",
+            "calibrations refused: {} (those runs keep the beliefs from before the refused step)",
             figures.calibrations_refused
         );
     }
@@ -1615,7 +1615,8 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     )?;
     if args.calibrated {
         println!(
-            "calibrations refused: {refused} (those robots keep the configuration as written)"
+            "calibrations refused: {refused} (those robots keep the beliefs from before the refused \
+             step)"
         );
     }
     println!(
