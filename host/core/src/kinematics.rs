@@ -33,8 +33,18 @@
 //!   0.93 in the realistic world): rounds 1.0 / 0.6 / 0.5 s
 //!   faster on seeds 11–60 and 61–110 alike, but 7 and 6 collisions against 0 and 1,
 //!   carried parts touching a divider on entering their drop: the strafe along the row ran
-//!   about 6 mm past the drop before turning down into it (seed 70, round 2). Not kept
-//!   until the approach to a drop is tuned for the faster strafe.
+//!   about 6 mm past the drop before turning down into it (seed 70, round 2). Measured
+//!   again once the free-space shortcuts were on, over the tuning seeds 61–160: 35.0 /
+//!   37.6 / 48.5 s per round against 36.0 / 38.2 / 49.1 s, 7 collisions in 300 rounds
+//!   against 1, all at drops: along the outgoing row past the slot in the robot's own
+//!   estimate (round 2, seed 83: 10 mm past slot 2, so the follower's overshoot, not the
+//!   localiser's), and a part from incoming slot 4 entering machine B's input with the
+//!   robot 3–6 mm off (seeds 69, 85; the part sits on the magnet as far off its centre as
+//!   it stood in its slot, up to 10 mm, of the 20 mm it has each side). Neither a speed cap
+//!   on the corner into a drop's approach (at 0.15 m/s the machine entries still touched, at
+//!   0.05 m/s 3–4 s slower per round), a heading aligned earlier, nor a stiffer cross-track
+//!   gain (5 → 8 per s: 1.5 s slower) removed them on those seeds. Not kept until the
+//!   approach to a drop holds the part's play without slowing every drop.
 
 use crate::config::RobotConfig;
 
