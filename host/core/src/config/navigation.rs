@@ -106,11 +106,11 @@ pub struct NavigationConfig {
     /// The heading must reach the goal's this path length before the end, m. 0.08: more
     /// than `dock_length_m`, so the robot enters a slot square.
     pub align_before_m: f64,
-    /// Replace graph detours by straight lines where the footprint is free. true: since the
-    /// follower turns while it moves and meets a part without stopping, cutting the few
-    /// corners the rows leave room for pays: `bench rounds --calibrated`, realistic world,
-    /// tuning seeds 61–110, 36.5 / 38.5 / 49.4 → 36.0 / 38.1 / 49.1 s per round, collisions
-    /// 1 → 0 (it was off while `bench navigation` measured no gain for the older follower).
+    /// Replace graph detours by straight lines where the footprint is free. true: over whole
+    /// rounds the few corners the rows leave room for pay (`bench rounds --calibrated`,
+    /// realistic world, tuning seeds 61–110: 36.5 / 38.5 / 49.4 → 36.0 / 38.1 / 49.1 s per
+    /// round, collisions 1 → 0), although `bench navigation`'s single trips gain almost
+    /// nothing (3.15 → 3.13 s), which is why it was off before.
     pub shortcuts: bool,
     /// Extra clearance around the robot's swept footprint for shortcuts, m. 0.02:
     /// assumption, covers the estimate's error and the cross-track error.
