@@ -36,15 +36,16 @@
 //!   about 6 mm past the drop before turning down into it (seed 70, round 2). Measured
 //!   again once the free-space shortcuts were on, over the tuning seeds 61–160: 35.0 /
 //!   37.6 / 48.5 s per round against 36.0 / 38.2 / 49.1 s, 7 collisions in 300 rounds
-//!   against 1, all at drops: along the outgoing row past the slot in the robot's own
-//!   estimate (round 2, seed 83: 10 mm past slot 2, so the follower's overshoot, not the
-//!   localiser's), and a part from incoming slot 4 entering machine B's input with the
-//!   robot 3–6 mm off (seeds 69, 85; the part sits on the magnet as far off its centre as
-//!   it stood in its slot, up to 10 mm, of the 20 mm it has each side). Neither a speed cap
-//!   on the corner into a drop's approach (at 0.15 m/s the machine entries still touched, at
-//!   0.05 m/s 3–4 s slower per round), a heading aligned earlier, nor a stiffer cross-track
-//!   gain (5 → 8 per s: 1.5 s slower) removed them on those seeds. Not kept until the
-//!   approach to a drop holds the part's play without slowing every drop.
+//!   against 1, all at drops: four along the outgoing row past slot 1 or 2 (seeds 83, 132,
+//!   142, 133; at seed 83, round 2, 10 mm past slot 2 in the robot's own estimate, so the
+//!   follower's overshoot, not the localiser's), three a part entering machine B's lower
+//!   input with the robot 3–4 mm off (seeds 85, 121, 159; the part sits on the magnet as far
+//!   off its centre as it stood in its slot, up to 10 mm, of the 20 mm it has each side).
+//!   Tried on seeds 83, 85 and 69, round 2: a speed cap on the corner into a drop's
+//!   approach (at 0.15 m/s the machine entries still touched; at 0.05 m/s none did, 3–4 s
+//!   slower per round), the heading aligned earlier (no change), and a stiffer cross-track
+//!   gain (5 → 8 per s: none touched, 1.5 s slower per round). Not kept until the approach
+//!   to a drop holds the part's play without slowing every drop.
 
 use crate::config::RobotConfig;
 
