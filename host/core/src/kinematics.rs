@@ -25,27 +25,24 @@
 //!   predicts: (+,−,+,−) forward, (+,+,+,+) rotation, (+,+,−,−) sideways.
 //! * Forward kinematics is the least-squares inverse: the fourth wheel combination
 //!   (u₀ + u₁ − u₂ − u₃, wheels fighting each other) moves nothing and is dropped.
-//! * The geometry is rigid: the rollers' sideways slip (`robot.strafe_factor`) is applied by
-//!   the odometry alone, so a commanded strafe gives that factor of its speed and the
-//!   follower's feedback makes up the rest. Commanding through it (inverse kinematics
-//!   dividing vy by the factor, the wheel budget counting |vy| / factor) was measured with
-//!   `bench rounds --calibrated`, whose robots believe the odometry drive's fit (the factor
-//!   0.93 in the realistic world): rounds 1.0 / 0.6 / 0.5 s
-//!   faster on seeds 11–60 and 61–110 alike, but 7 and 6 collisions against 0 and 1,
-//!   carried parts touching a divider on entering their drop: the strafe along the row ran
-//!   about 6 mm past the drop before turning down into it (seed 70, round 2). Measured
-//!   again once the free-space shortcuts were on, over the tuning seeds 61–160: 35.0 /
-//!   37.6 / 48.5 s per round against 36.0 / 38.2 / 49.1 s, 7 collisions in 300 rounds
-//!   against 1, all at drops: four along the outgoing row past slot 1 or 2 (seeds 83, 132,
-//!   142, 133; at seed 83, round 2, 10 mm past slot 2 in the robot's own estimate, so the
-//!   follower's overshoot, not the localiser's), three a part entering machine B's lower
-//!   input with the robot 3–4 mm off (seeds 85, 121, 159; the part sits on the magnet as far
-//!   off its centre as it stood in its slot, up to 10 mm, of the 20 mm it has each side).
-//!   Tried on seeds 83, 85 and 69, round 2: a speed cap on the corner into a drop's
-//!   approach (at 0.15 m/s the machine entries still touched; at 0.05 m/s none did, 3–4 s
-//!   slower per round), the heading aligned earlier (no change), and a stiffer cross-track
-//!   gain (5 → 8 per s: none touched, 1.5 s slower per round). Not kept until the approach
-//!   to a drop holds the part's play without slowing every drop.
+//! * The rollers' sideways slip (`robot.strafe_factor`, f ≤ 1: a body commanded sideways
+//!   travels f of the rigid geometry's distance) is part of the model: the inverse divides vy
+//!   by f, so a commanded strafe is the strafe driven, and the forward (odometry) multiplies
+//!   by it. [`Mecanum::rigid`] is the geometry alone, f = 1, for the simulated body, which
+//!   applies the world's own slip.
+//! * History. Until the drops held the part's play (`control::profile::SLOT_CORNER_M_S`,
+//!   and a drop aimed at the part rather than the magnet, `competition::held_part_across_m`),
+//!   the slip was applied by the odometry alone, and the follower's feedback made up the
+//!   strafe it cost. Commanding through it was 0.6–1.0 s faster per round, but over the
+//!   realistic world's tuning seeds 61–160 (`bench rounds --calibrated`, shortcuts on) it
+//!   touched a divider with the carried part 7 times in 300 rounds against once, all on
+//!   entering a drop: four along the outgoing row past slot 1 or 2 (the robot ran 10 mm past
+//!   slot 2 in its own estimate at seed 83, round 2), three entering machine B's lower input
+//!   with the robot 3–4 mm off and the part off the magnet's centre. With both fixes, no
+//!   touch in 300 over the same seeds, rounds 0.6–0.7 / 0.2–0.3 / 0.3 s faster than without the
+//!   three changes (README: worlds). Tried before and not kept: the
+//!   heading aligned earlier (no change) and a stiffer cross-track gain (5 → 8 per s: no
+//!   touch, 1.5 s slower per round).
 
 use crate::config::RobotConfig;
 
@@ -105,15 +102,28 @@ pub struct Mecanum {
     wheel_radius_m: f64,
     /// Wire sign for forward rolling, per wheel.
     forward_sign: [f64; 4],
+    /// Sideways travel over the rigid geometry's (the rollers' slip), in (0, 1].
+    strafe_factor: f64,
 }
 
 impl Mecanum {
-    /// Kinematics for the geometry in `robot` (assumed validated).
+    /// The robot's model of its base in `robot` (assumed validated): the geometry and the
+    /// rollers' strafe factor.
     pub fn new(robot: &RobotConfig) -> Self {
+        Self {
+            strafe_factor: robot.strafe_factor,
+            ..Self::rigid(robot)
+        }
+    }
+
+    /// The geometry in `robot` alone, strafe factor 1 (the simulated body, which applies the
+    /// world's slip itself).
+    pub fn rigid(robot: &RobotConfig) -> Self {
         Self {
             half_wheelbase_sum_m: robot.half_wheelbase_sum_m(),
             wheel_radius_m: robot.wheel_radius_m(),
             forward_sign: robot.wheel_forward_sign.map(f64::from),
+            strafe_factor: 1.0,
         }
     }
 
@@ -126,7 +136,7 @@ impl Mecanum {
     pub fn inverse(&self, twist: BodyTwist) -> [f64; 4] {
         std::array::from_fn(|i| {
             let rolling_m_s = twist.vx_m_s
-                + VY_SIGN[i] * twist.vy_m_s
+                + VY_SIGN[i] * twist.vy_m_s / self.strafe_factor
                 + OMEGA_SIGN[i] * self.half_wheelbase_sum_m * twist.omega_rad_s;
             self.forward_sign[i] * rolling_m_s / self.wheel_radius_m
         })
@@ -138,7 +148,9 @@ impl Mecanum {
     /// combinations, and a mecanum base has all four. 0 when the translation alone takes it
     /// all.
     pub fn yaw_rate_left_rad_s(&self, vx_m_s: f64, vy_m_s: f64, max_wheel_speed_rad_s: f64) -> f64 {
-        let rim_left = max_wheel_speed_rad_s * self.wheel_radius_m - vx_m_s.abs() - vy_m_s.abs();
+        let rim_left = max_wheel_speed_rad_s * self.wheel_radius_m
+            - vx_m_s.abs()
+            - vy_m_s.abs() / self.strafe_factor;
         (rim_left / self.half_wheelbase_sum_m).max(0.0)
     }
 
@@ -154,7 +166,7 @@ impl Mecanum {
         }
         BodyTwist::new(
             sum[0] / 4.0,
-            sum[1] / 4.0,
+            self.strafe_factor * sum[1] / 4.0,
             sum[2] / (4.0 * self.half_wheelbase_sum_m),
         )
     }
@@ -283,6 +295,21 @@ mod tests {
             prop_assert!((back.vx_m_s - t.vx_m_s).abs() < 1e-12);
             prop_assert!((back.vy_m_s - t.vy_m_s).abs() < 1e-12);
             prop_assert!((back.omega_rad_s - t.omega_rad_s).abs() < 1e-12);
+        }
+
+        #[test]
+        fn a_strafe_is_commanded_through_the_rollers_slip(t in twist(), f in 0.7..1.0f64) {
+            let slipping = Mecanum::new(&RobotConfig { strafe_factor: f, ..RobotConfig::default() });
+            let wheels = slipping.inverse(t);
+            // The model inverts itself: the odometry reads back the twist commanded.
+            let back = slipping.forward(wheels);
+            prop_assert!((back.vy_m_s - t.vy_m_s).abs() < 1e-12);
+            // The wheels turn as for 1/f of the strafe on a rigid base, which the slip takes
+            // back to the strafe commanded; forward and yaw are untouched.
+            let rigid = Mecanum::rigid(&RobotConfig::default()).forward(wheels);
+            prop_assert!((rigid.vy_m_s * f - t.vy_m_s).abs() < 1e-12);
+            prop_assert!((rigid.vx_m_s - t.vx_m_s).abs() < 1e-12);
+            prop_assert!((rigid.omega_rad_s - t.omega_rad_s).abs() < 1e-12);
         }
 
         #[test]

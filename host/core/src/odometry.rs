@@ -2,8 +2,8 @@
 //!
 //! Per update (one telemetry batch, 50 Hz): tick deltas (wrapping i32 arithmetic, so the
 //! Mega's cumulative counters may overflow), wheel angle deltas Δφ = Δticks·2π/ticks_per_rev,
-//! the body's arc increment (du, dv, dθ) by mecanum forward kinematics (dv scaled by
-//! `robot.strafe_factor`: the rollers' sideways slip), then the exact
+//! the body's arc increment (du, dv, dθ) by the robot's mecanum model (whose forward
+//! scales dv by `robot.strafe_factor`: the rollers' sideways slip), then the exact
 //! constant-curvature integration (the SE(2) exponential). The original (original-system.md
 //! §4.3) uses the same arc but rotates the chord by θ + dθ/2 although the chord formula is
 //! already in the start frame, so it over-rotates each step by dθ/2; here the chord is
@@ -77,7 +77,6 @@ pub struct OdometryStep {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Odometry {
     kinematics: Mecanum,
-    strafe_factor: f64,
     ticks_per_wheel_rev: f64,
     last_totals: Option<[i32; 4]>,
     pose: Pose2,
@@ -88,7 +87,6 @@ impl Odometry {
     pub fn new(robot: &RobotConfig) -> Self {
         Self {
             kinematics: Mecanum::new(robot),
-            strafe_factor: robot.strafe_factor,
             ticks_per_wheel_rev: robot.ticks_per_wheel_rev,
             last_totals: None,
             pose: Pose2::default(),
@@ -124,8 +122,7 @@ impl Odometry {
         let tick_deltas: [i32; 4] = std::array::from_fn(|i| totals[i].wrapping_sub(last[i]));
         let wheel_angle_deltas_rad =
             tick_deltas.map(|d| f64::from(d) * TAU / self.ticks_per_wheel_rev);
-        let mut arc = self.kinematics.forward(wheel_angle_deltas_rad);
-        arc.vy_m_s *= self.strafe_factor;
+        let arc = self.kinematics.forward(wheel_angle_deltas_rad);
         let body_increment = arc_displacement(arc.vx_m_s, arc.vy_m_s, arc.omega_rad_s);
         self.pose = self.pose.compose(body_increment.as_pose());
         let period_s = f64::from(period_us) * 1e-6;

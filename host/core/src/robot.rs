@@ -186,6 +186,16 @@ pub struct Robot {
     counts: InputCounts,
 }
 
+/// The kinematics the core commands the wheels through: ours the robot's model with the
+/// rollers' slip (`robot.strafe_factor`); the original preset the rigid geometry, as the
+/// original's table had no slip in it (a faithful baseline commands as the original did).
+fn command_kinematics(config: &Config) -> Mecanum {
+    match config.competition.policy {
+        Policy::Ours => Mecanum::new(&config.robot),
+        Policy::Original => Mecanum::rigid(&config.robot),
+    }
+}
+
 impl Robot {
     /// A core for the robot in `config`, with the estimator of its policy
     /// ([`EstimatorKind::for_policy`]), believing it starts at `start_pose`.
@@ -197,7 +207,7 @@ impl Robot {
     /// A core with the pose estimator `kind`.
     pub fn with_estimator(config: &Config, kind: EstimatorKind, start_pose: Pose2) -> Self {
         Self {
-            mecanum: Mecanum::new(&config.robot),
+            mecanum: command_kinematics(config),
             max_wheel_speed_rad_s: config.robot.max_wheel_speed_rad_s,
             estimation: Estimation::new(config, kind, start_pose),
             last_odometry: None,
@@ -342,6 +352,25 @@ mod tests {
         config.competition.policy = Policy::Original;
         let original = Robot::new(&config, Pose2::default());
         assert_eq!(original.estimation().estimator().covariance(), original_p0);
+    }
+
+    #[test]
+    fn ours_strafes_through_the_rollers_slip_and_the_original_as_its_table_did() {
+        let mut config = Config::default();
+        config.robot.strafe_factor = 0.9;
+        let strafe_wheels = |config: &Config| {
+            let mut robot = Robot::new(config, Pose2::default());
+            robot.command_motion(BodyTwist::new(0.0, 0.18, 0.0));
+            robot.tick(0).wheel_speeds_rad_s
+        };
+        // 0.18 m/s to the left: 6 rad/s per wheel on the rigid table, 6 / 0.9 through the slip.
+        let ours = strafe_wheels(&config);
+        config.competition.policy = Policy::Original;
+        let original = strafe_wheels(&config);
+        for (o, r) in ours.iter().zip(original) {
+            assert!((f64::from(r.abs()) - 6.0).abs() < 1e-5, "{original:?}");
+            assert!((f64::from(o.abs()) - 6.0 / 0.9).abs() < 1e-5, "{ours:?}");
+        }
     }
 
     #[test]

@@ -183,7 +183,7 @@ mod tests {
     fn setup() -> (Mecanum, TractionLimits) {
         let robot = RobotConfig::default();
         (
-            Mecanum::new(&robot),
+            Mecanum::rigid(&robot),
             TractionLimits::new(&TractionConfig::default(), &robot),
         )
     }

@@ -259,7 +259,7 @@ impl World {
                 truth.battery_resistance_ohm,
                 truth.battery_drop_v_per_ah,
             ),
-            mecanum: Mecanum::new(&world.robot),
+            mecanum: Mecanum::rigid(&world.robot),
             limits: TractionLimits::new(&world.traction, &world.robot),
             mcu,
             actuation: Actuation::default(),

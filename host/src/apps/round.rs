@@ -962,8 +962,8 @@ mod tests {
 
     /// The route displays show (HMI, ROS 2) is the navigator's own: on the way to a slot
     /// it exists and ends at that slot's pick pose (short of it by
-    /// [`ratf_core::control::route::DROP_SHORT_M`] carrying a part in); otherwise there is
-    /// none.
+    /// [`ratf_core::control::route::DROP_SHORT_M`] carrying a part in, and off its line by
+    /// where the part sits on the magnet); otherwise there is none.
     #[test]
     fn the_planned_route_is_the_navigators_and_ends_at_the_slot_it_goes_to() {
         use ratf_core::mission::Activity;
@@ -980,18 +980,19 @@ mod tests {
                     Some(Activity::ToPick { slot } | Activity::ToDrop { slot }) => {
                         let route = brain.planned_route().expect("a route on the way");
                         let pick = self.field.slot_for_waypoint(slot).unwrap().pick_pose;
-                        // A part is let go a little short of the pick pose.
-                        let goal = match activity {
+                        // A part is let go a little short of the pick pose, the robot off
+                        // the slot's line as far as the part sits off the magnet's centre.
+                        let goal = pick.relative(route.goal());
+                        match activity {
                             Some(Activity::ToDrop { .. }) => {
-                                pick.compose(ratf_core::field::geometry::Pose2::new(
-                                    -ratf_core::control::route::DROP_SHORT_M,
-                                    0.0,
-                                    0.0,
-                                ))
+                                let short = ratf_core::control::route::DROP_SHORT_M;
+                                let across = ratf_core::competition::MAX_HELD_PART_ACROSS_M;
+                                assert!((goal.x + short).abs() < 1e-9, "{goal:?}");
+                                assert!(goal.y.abs() <= across + 1e-12, "{goal:?}");
                             }
-                            _ => pick,
-                        };
-                        assert_eq!(route.goal(), goal);
+                            _ => assert_eq!(route.goal(), pick),
+                        }
+                        assert!(goal.yaw_rad.abs() < 1e-12, "{goal:?}");
                         if activity != self.last {
                             self.legs += 1;
                         }

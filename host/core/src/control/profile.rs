@@ -140,6 +140,52 @@ pub fn corner_speed_m_s(turn_rad: f64, accel_m_s2: f64, blend_m: f64) -> f64 {
     }
 }
 
+/// Speed cap at the corner into a slot where a carried part goes in right after it, m/s.
+/// The follower runs on past a corner by about its speed × 50 ms
+/// ([`crate::control::route::CORNER_OVERSHOOT_S`]); along the outgoing row under machine B
+/// the carried part's far face passes 17 mm above the outgoing dividers' tips, so it meets
+/// them 2 cm after the corner into its slot, with the overshoot not yet taken back. At the
+/// 90° corner's 0.27 m/s ([`corner_speed_m_s`]) the robot ran 7–10 mm past the line
+/// (truth; realistic world, calibrated, round 2 of seeds 53 and 83) and the part touched a
+/// divider. Chosen with [`SLOT_CORNER_NEAR_M`] on the tuning seeds 61–160 (README:
+/// worlds). The follower places itself by the estimate moved on by its last command over
+/// the loop's lag, ahead of the truth, so it reaches this stretch in its own reckoning
+/// while the robot is still short of it and faster than the cap (seed 58, round 1: 0.2 m/s
+/// at the corner, 10 mm past the line).
+pub const SLOT_CORNER_M_S: f64 = 0.08;
+/// Length of the stretch before that corner held at [`SLOT_CORNER_M_S`], m.
+const SLOT_CORNER_ZONE_M: f64 = 0.01;
+/// That corner is capped when the route's goal lies within this much of it, m: an outgoing
+/// slot entered from the row under machine B (8 cm); a slot approached down a long free
+/// stretch (an outgoing slot from above, the machines' inputs) leaves the robot the stretch
+/// to come onto the line first.
+const SLOT_CORNER_NEAR_M: f64 = 0.12;
+/// Least turn at that corner for the cap, rad (40°): a corner that turns less is a bend
+/// of the approach, not the turn into the slot.
+const SLOT_CORNER_MIN_TURN_RAD: f64 = 0.7;
+
+/// The cap on the corner where a route that carries a part into a slot turns into it, if
+/// the part goes between the dividers right after it ([`SLOT_CORNER_M_S`]): the last corner
+/// within [`SLOT_CORNER_NEAR_M`] of the goal that turns by more than
+/// [`SLOT_CORNER_MIN_TURN_RAD`] (a drop aimed off the slot's line, `competition`, leaves a
+/// bend of a few millimetres after it).
+fn slot_corner_zone(route: &Route) -> Option<SpeedZone> {
+    if !route.carries_part_in() {
+        return None;
+    }
+    let length = route.length_m();
+    let corner = (1..route.points().len().saturating_sub(1))
+        .rev()
+        .take_while(|&i| length - route.s_at_point_m(i) < SLOT_CORNER_NEAR_M)
+        .find(|&i| route.turn_angle_rad(i).abs() > SLOT_CORNER_MIN_TURN_RAD)?;
+    let corner_m = route.s_at_point_m(corner);
+    Some(SpeedZone {
+        from_m: corner_m - SLOT_CORNER_ZONE_M,
+        to_m: corner_m,
+        max_m_s: SLOT_CORNER_M_S,
+    })
+}
+
 impl Profile {
     /// The caps for `route`: corners, the heading turn, the wheels' budget, the docking
     /// approach, the stop. The wheels' cap is their whole limit: the follower scales its
@@ -167,6 +213,9 @@ impl Profile {
                 to_m: s + config.corner_blend_m / 2.0,
                 max_m_s: v,
             });
+        }
+        if let Some(zone) = slot_corner_zone(route) {
+            zones.push(zone);
         }
         if heading.turn_rad.abs() > 1e-9 {
             // Keep a fifth of the yaw-rate limit for the heading feedback. A (nearly) zero
@@ -305,6 +354,43 @@ mod tests {
         let braking = (2.0 * config.max_decel_m_s2 * config.dock_length_m / 2.0).sqrt();
         assert!(braking > config.dock_speed_m_s);
         assert!((cap_at(&route.carrying_part_in()) - braking).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_carried_part_turns_slowly_into_a_slot_it_enters_right_after_the_corner() {
+        // Along a row, then 8 cm down into a slot, with the few-millimetre bend of a drop
+        // aimed off the slot's line 3 cm before the goal.
+        let row_then_slot = |down_m: f64| {
+            Route::new(
+                vec![
+                    Vec2::new(0.0, 0.0),
+                    Vec2::new(0.5, 0.0),
+                    Vec2::new(0.502, -(down_m - 0.03)),
+                    Vec2::new(0.502, -down_m),
+                ],
+                -FRAC_PI_2,
+                -FRAC_PI_2,
+                0.0,
+            )
+            .unwrap()
+        };
+        let just_before_the_corner = 0.5 - SLOT_CORNER_ZONE_M / 2.0;
+        let cap_at = |route: &Route| {
+            Profile::new(
+                route,
+                &HeadingPlan::new(route, &NavigationConfig::default()),
+                &NavigationConfig::default(),
+                &wheels(),
+            )
+            .speed_limit_m_s(just_before_the_corner)
+        };
+        let near = row_then_slot(0.08);
+        assert_eq!(cap_at(&near.clone().carrying_part_in()), SLOT_CORNER_M_S);
+        // Empty-handed, or with room after the corner to come onto the line, the corner's
+        // own cap.
+        assert!(cap_at(&near) > 2.0 * SLOT_CORNER_M_S);
+        let far = row_then_slot(SLOT_CORNER_NEAR_M + 0.01).carrying_part_in();
+        assert!(cap_at(&far) > 2.0 * SLOT_CORNER_M_S);
     }
 
     #[test]
