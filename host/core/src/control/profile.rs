@@ -147,8 +147,8 @@ pub fn corner_speed_m_s(turn_rad: f64, accel_m_s2: f64, blend_m: f64) -> f64 {
 /// them 2 cm after the corner into its slot, with the overshoot not yet taken back. At the
 /// 90° corner's 0.27 m/s ([`corner_speed_m_s`]) the robot ran 7–10 mm past the line
 /// (truth; realistic world, calibrated, round 2 of seeds 53 and 83) and the part touched a
-/// divider. Chosen with [`SLOT_CORNER_NEAR_M`] on the tuning seeds 61–160 (README:
-/// worlds). The follower places itself by the estimate moved on by its last command over
+/// divider. Chosen with the reach of the cap (`SLOT_CORNER_NEAR_M`) on the tuning seeds
+/// 61–160 (README: worlds). The follower places itself by the estimate moved on by its last command over
 /// the loop's lag, ahead of the truth, so it reaches this stretch in its own reckoning
 /// while the robot is still short of it and faster than the cap (seed 58, round 1: 0.2 m/s
 /// at the corner, 10 mm past the line).
