@@ -278,6 +278,11 @@ impl Shop {
         self.where_released = where_released;
     }
 
+    /// Where the switch and the magnet reach.
+    pub fn gripper(&self) -> Gripper {
+        self.gripper
+    }
+
     /// A part's footprint in the world, given the robot's pose (for a carried part).
     pub fn footprint(&self, part: usize, robot: Pose2) -> OrientedRect {
         let pose = match self.parts[part].place {

@@ -28,7 +28,8 @@
 //! without turning, until a wall, a pole or another part stops it; then the robot stops too.
 //! Each new contact of the robot or its carried part is a [`Collision`], except the carried
 //! part touching the slot it is being placed in or picked from (the magnet presses it there
-//! by design). The `ideal` world keeps today's simulator for regression: no contact, the
+//! by design), and a part the magnet has just let go of, until the body has moved clear of
+//! it (it stood against the magnet's face, which stands proud of the body). The `ideal` world keeps today's simulator for regression: no contact, the
 //! body passes through and each overlap deeper than 2 mm counts as a collision; its parts
 //! stand exactly centred, also where the robot released them.
 
@@ -195,6 +196,9 @@ pub struct World {
     body_offset: Pose2,
     /// What the robot (or its carried part) is in contact with (overlaps, in the ideal world).
     in_contact: Vec<Obstruction>,
+    /// Parts the magnet let go of that still stand within its face's reach of the body
+    /// (see [`World::forget_released_parts_left_behind`]).
+    released_at_face: Vec<usize>,
     /// Contact physics on: every world but `ideal`, which stays today's for regression.
     contact: bool,
     /// The walls, dividers and beacon poles as contact shapes (they never move).
@@ -292,6 +296,7 @@ impl World {
                 .collect(),
             body_offset,
             in_contact: Vec::new(),
+            released_at_face: Vec::new(),
             contact: truth.profile != WorldProfile::Ideal,
             fixed_solids: fixed_solids(&field),
             collisions: Vec::new(),
@@ -407,6 +412,7 @@ impl World {
     pub fn set_contact(&mut self, on: bool) {
         self.contact = on && self.truth.profile != WorldProfile::Ideal;
         self.in_contact.clear();
+        self.released_at_face.clear();
     }
 
     /// Fault injection: the Mega resets now and is back `boot_us` later (its bootloader's
@@ -585,6 +591,11 @@ impl World {
             .shop
             .step(now_us, self.body.pose, self.actuation.solenoid_on)
         {
+            if let PartEvent::Placed { part, .. } | PartEvent::Dropped { part } = event
+                && self.contact
+            {
+                self.released_at_face.push(part);
+            }
             self.part_events.push((now_us, event));
         }
         if !self.contact {
@@ -778,6 +789,7 @@ impl World {
         if pushed_back {
             self.stats.contact_steps += 1;
         }
+        self.forget_released_parts_left_behind();
         // A contact lasts while the robot stays within the tolerance of it.
         let lasting: Vec<Obstruction> = if self.in_contact.is_empty() {
             Vec::new()
@@ -794,7 +806,9 @@ impl World {
                 .collect()
         };
         for &with in &touched {
-            if !self.in_contact.contains(&with) {
+            let held_until_now = matches!(with, Obstruction::Part(part)
+                if self.released_at_face.contains(&part));
+            if !self.in_contact.contains(&with) && !held_until_now {
                 self.collisions.push(Collision {
                     time_us: now_us,
                     with,
@@ -823,6 +837,31 @@ impl World {
         if !touched.contains(&what) {
             touched.push(what);
         }
+    }
+
+    /// Forgets the parts the magnet let go of that the body has moved clear of. Such a part
+    /// stood against the magnet's face, which stands proud of the body
+    /// ([`crate::parts::Gripper::magnet_m`]) and is no solid here. Until the body has moved
+    /// clear of it, touching it is the contact the magnet had, going on: a robot coasting on
+    /// after its magnet lets go (a Mega reset cuts the solenoid with the wheels still
+    /// turning) pushes the part it held, it does not run into it.
+    fn forget_released_parts_left_behind(&mut self) {
+        if self.released_at_face.is_empty() {
+            return;
+        }
+        let gripper = self.shop.gripper();
+        let reach = gripper.magnet_m - gripper.front_m + Self::CONTACT_TOLERANCE_M;
+        let near = self.robot_solids_inflated(reach);
+        let carried = self.shop.carried();
+        let shop = &self.shop;
+        let pose = self.body.pose;
+        self.released_at_face.retain(|&part| {
+            let rect = shop.footprint(part, pose);
+            Some(part) != carried
+                && near
+                    .iter()
+                    .any(|r| push_out(r, &Shape::Rect(rect)).is_some())
+        });
     }
 
     /// The robot's solids grown by `margin_m` on every side.
@@ -1098,6 +1137,47 @@ mod tests {
             with.iter().filter(|&&w| w == Obstruction::Part(0)).count(),
             1
         );
+    }
+
+    /// The bug this guards: a Mega reset cuts the magnet with the wheels still turning, and
+    /// the robot coasting on into the part it had just held counted a collision with it
+    /// (seeds 61–70 of the fault bench: 6 of the Mega reset's 7 collisions).
+    #[test]
+    fn a_part_let_go_while_moving_is_pushed_on_without_a_collision() {
+        let mut world = one_part_world_with_contact();
+        let part_at = Pose2::new(-0.8 + 0.15 + 0.05 + 0.03, 0.0, std::f64::consts::PI);
+        world.put_part_on_floor(0, part_at);
+        let creep = ratf_core::kinematics::BodyTwist::new(0.05, 0.0, 0.0);
+        drive_until(&mut world, creep, true, 1500, |w| {
+            w.shop().carried().is_some()
+        });
+        assert_eq!(world.shop().carried(), Some(0), "{:?}", world.part_events());
+        let ahead = ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0);
+        drive(&mut world, ahead, 300);
+        let before = world.footprint().pose.x;
+        assert_eq!(world.shop().carried(), None);
+        assert!(
+            world
+                .part_events()
+                .iter()
+                .any(|(_, e)| matches!(e, PartEvent::Dropped { part: 0 })),
+            "{:?}",
+            world.part_events()
+        );
+        // It went on pushing the part it let go of, and ran into nothing.
+        assert!(before > -0.8 + 0.04, "{before}");
+        let part = world.shop().footprint(0, world.body().pose);
+        assert!(
+            (part.pose.x - (before + 0.15 + 0.03)).abs() < 0.003,
+            "{part:?}"
+        );
+        assert_eq!(world.collisions(), &[]);
+        // Backed clear of it and driven into it again, the robot does run into it.
+        let back = ratf_core::kinematics::BodyTwist::new(-0.1, 0.0, 0.0);
+        drive(&mut world, back, 500);
+        drive(&mut world, ahead, 600);
+        let with: Vec<Obstruction> = world.collisions().iter().map(|c| c.with).collect();
+        assert_eq!(with.first(), Some(&Obstruction::Part(0)), "{with:?}");
     }
 
     #[test]

@@ -212,7 +212,11 @@ impl PathFollower for Follower {
         }
         let c = &self.config;
         // Where the robot will be once this command takes effect: the estimate moved on by
-        // the last command over the loop's lag.
+        // the last command over the loop's lag. (Moving it on by the integral of the commands
+        // given over the last lag instead, a pure-delay model that places a braking robot
+        // further on, was measured at `a7396ae` on the realistic world's seeds 61–160,
+        // calibrated: no collision either way, but 0.6 / 0.6 / 1.1 s slower per round,
+        // the heading's prediction alike or not; not kept.)
         let position = pose.position() + self.last_velocity * c.lag_compensation_s;
         let at = route.project(self.segment, position);
         self.segment = at.segment;
