@@ -120,6 +120,11 @@ pub trait Navigator {
     /// The robot was held still (the mission stood, [`Mission::hold`]): it is at rest now,
     /// whatever was last commanded; go on along the same way from rest.
     fn halted(&mut self);
+    /// The part on the magnet was just gripped centred on its plate (the search's centring
+    /// strafes, `mission::search`), not where a docking leg met it: whatever the navigator
+    /// noted of where it sits on the magnet at its pick no longer holds. By default nothing
+    /// is noted.
+    fn gripped_centred(&mut self) {}
 }
 
 /// The mission's timing and distances (`[mission]`). Defaults are assumptions, each argued.
@@ -844,6 +849,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             Step::Searching(twist) => twist,
             Step::Found => {
                 events.push(MissionEvent::Regripped);
+                self.navigator.gripped_centred();
                 let m = self.floor.free_reverse_m(
                     pose,
                     self.config.regrip_backoff_m,
@@ -1158,6 +1164,8 @@ mod tests {
         moving: Option<BodyTwist>,
         /// Times told the robot was held still.
         halts: u32,
+        /// Times told the part was gripped centred.
+        centred_grips: u32,
     }
 
     impl Navigator for FakeNavigator {
@@ -1178,6 +1186,10 @@ mod tests {
 
         fn halted(&mut self) {
             self.halts += 1;
+        }
+
+        fn gripped_centred(&mut self) {
+            self.centred_grips += 1;
         }
 
         fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
@@ -1725,6 +1737,8 @@ mod tests {
                 600,
             );
             assert!(events.contains(&MissionEvent::Regripped), "{events:?}");
+            // The navigator knows the part now sits centred, whatever it noted at the pick.
+            assert_eq!(m.navigator.centred_grips, 1);
             assert!(
                 events.contains(&MissionEvent::Placed { slot: A.drop }),
                 "{events:?}"
