@@ -29,9 +29,10 @@
 //! Each new contact of the robot or its carried part is a [`Collision`], except the carried
 //! part touching the slot it is being placed in or picked from (the magnet presses it there
 //! by design), and a part the magnet has just let go of, until the body has moved clear of
-//! it (it stood against the magnet's face, which stands proud of the body). The `ideal` world keeps today's simulator for regression: no contact, the
-//! body passes through and each overlap deeper than 2 mm counts as a collision; its parts
-//! stand exactly centred, also where the robot released them.
+//! it (it stood against the magnet's face, which stands proud of the body). The `ideal`
+//! world keeps today's simulator for regression: no contact, the body passes through and
+//! each overlap deeper than 2 mm counts as a collision; its parts stand exactly centred, also
+//! where the robot released them.
 
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -1154,7 +1155,7 @@ mod tests {
         assert_eq!(world.shop().carried(), Some(0), "{:?}", world.part_events());
         let ahead = ratf_core::kinematics::BodyTwist::new(0.2, 0.0, 0.0);
         drive(&mut world, ahead, 300);
-        let before = world.footprint().pose.x;
+        let robot_x = world.footprint().pose.x;
         assert_eq!(world.shop().carried(), None);
         assert!(
             world
@@ -1165,10 +1166,10 @@ mod tests {
             world.part_events()
         );
         // It went on pushing the part it let go of, and ran into nothing.
-        assert!(before > -0.8 + 0.04, "{before}");
+        assert!(robot_x > -0.8 + 0.04, "{robot_x}");
         let part = world.shop().footprint(0, world.body().pose);
         assert!(
-            (part.pose.x - (before + 0.15 + 0.03)).abs() < 0.003,
+            (part.pose.x - (robot_x + 0.15 + 0.03)).abs() < 0.003,
             "{part:?}"
         );
         assert_eq!(world.collisions(), &[]);
