@@ -139,3 +139,51 @@ fn a_calibration_is_written_as_a_configuration_that_checks() {
     // The default believes 172°; seed 3's lidar is turned 2.7° off it.
     assert!((yaw - 174.67).abs() < 0.3, "{yaw}");
 }
+
+/// `ratf bench bound --magnet-faces front,back --json`: the bound for a robot with a second
+/// magnet on its back, below the competition robot's in every round; `ratf sim` with such
+/// a robot file says why it cannot drive it instead of running.
+#[test]
+fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
+    let bound = |faces: &str| {
+        let output = Command::new(env!("CARGO_BIN_EXE_ratf"))
+            .args(["bench", "bound", "--json", "--magnet-faces", faces])
+            .output()
+            .expect("ratf bench bound runs");
+        assert!(
+            output.status.success(),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        last_json_line(&output.stdout)
+    };
+    let one = bound("front");
+    let two = bound("front,back");
+    assert_eq!(two["magnet_faces"], serde_json::json!(["front", "back"]));
+    for round in 0..3 {
+        let mean = |value: &serde_json::Value| value["rounds"][round]["mean_s"].as_f64().unwrap();
+        assert!(
+            mean(&two) < mean(&one),
+            "round {}: {two} against {one}",
+            round + 1
+        );
+    }
+    let dir = std::env::temp_dir().join(format!("ratf-cli-magnets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let robot = dir.join("two-magnets.toml");
+    std::fs::write(&robot, "[robot]\nmagnet_faces = [\"front\", \"back\"]\n").unwrap();
+    let sim = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(["sim", "--round", "1", "--out"])
+        .arg(&dir)
+        .arg("--config")
+        .arg(&robot)
+        .output()
+        .expect("ratf sim runs");
+    let _ = std::fs::remove_dir_all(&dir);
+    let stderr = String::from_utf8_lossy(&sim.stderr);
+    assert!(!sim.status.success());
+    assert!(
+        stderr.contains("the task planner and the mission carry one part"),
+        "{stderr}"
+    );
+}

@@ -36,7 +36,7 @@ pub use localisation::{CentreMethod, LocalisationConfig};
 pub use mega::MegaConfig;
 pub use motor::{MotorConfig, TractionConfig};
 pub use navigation::NavigationConfig;
-pub use robot::{ImuConfig, RobotConfig};
+pub use robot::{ImuConfig, MagnetFace, RobotConfig};
 pub use sim::{ClutterConfig, SimConfig, WorldProfile};
 
 use check::Checker;

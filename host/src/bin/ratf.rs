@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use ratf_core::config::{Config, ConfigError, Policy, WorldProfile};
+use ratf_core::config::{Config, ConfigError, MagnetFace, Policy, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_host::apps::drive::{self, DriveReport, DriveTrace};
@@ -333,6 +333,24 @@ enum BenchCommand {
     /// Every round with each fault injected at random times (one kind at a time, then
     /// mixed): full-score rate, points, recoveries, time lost, collisions, unsafe events.
     Faults(FaultsBenchArgs),
+    /// The lower bound on each round's time (`planning::bound`: what physics and the rules
+    /// allow) over every colour arrangement, for the configured robot or for other magnet
+    /// faces (a second magnet on the back carries two parts at once).
+    Bound(BoundBenchArgs),
+}
+
+#[derive(Debug, Args)]
+struct BoundBenchArgs {
+    /// Configuration file (defaults: the competition robot).
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// The faces carrying a magnet, comma-separated (default: the configuration's
+    /// `robot.magnet_faces`, the competition robot's `front`).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    magnet_faces: Vec<MagnetFace>,
+    /// Print one JSON object with the figures as the last line of stdout.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, Args)]
@@ -641,6 +659,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Localisation(args)) => loc_bench_command(&args)?,
         Command::Bench(BenchCommand::Rounds(args)) => rounds_bench_command(&args)?,
         Command::Bench(BenchCommand::Calibration(args)) => calibration_bench_command(&args)?,
+        Command::Bench(BenchCommand::Bound(args)) => bound_bench_command(&args)?,
         Command::Bench(BenchCommand::Faults(args)) => faults_bench_command(&args)?,
         Command::Calibrate(args) => calibrate_command(&args)?,
         Command::Tune(TuneCommand::Motors(args)) => {
@@ -1970,6 +1989,42 @@ fn calibrate_on_robot(args: &CalibrateArgs) -> ! {
         exit(1, &format!("{e:#}"));
     }
     std::process::exit(0);
+}
+
+fn bound_bench_command(args: &BoundBenchArgs) -> anyhow::Result<()> {
+    use ratf_core::planning::bound::RoundBound;
+    let mut config = load_config(args.config.as_deref())?;
+    if !args.magnet_faces.is_empty() {
+        config.robot.magnet_faces.clone_from(&args.magnet_faces);
+        config.validate()?;
+    }
+    let faces = &config.robot.magnet_faces;
+    let bound = RoundBound::new(&config, &Field::competition())?;
+    println!(
+        "lower bound on a round's time (ratf_core::planning::bound), robot.magnet_faces = {}: \
+         {} carried at once",
+        MagnetFace::list(faces),
+        match faces.len() {
+            1 => "one part".to_owned(),
+            n => format!("{n} parts"),
+        }
+    );
+    println!("round     mean s    least s  greatest s   (over the colour arrangements)");
+    let mut rounds = Vec::new();
+    for round in 1..=3 {
+        let (mean, least, greatest) = bound.over_arrangements(round)?;
+        println!("{round:<5} {mean:>10.2} {least:>10.2} {greatest:>11.2}");
+        rounds.push(serde_json::json!({
+            "round": round, "mean_s": mean, "least_s": least, "greatest_s": greatest,
+        }));
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({ "magnet_faces": faces, "rounds": rounds })
+        );
+    }
+    Ok(())
 }
 
 fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> {

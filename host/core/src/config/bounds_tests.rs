@@ -379,3 +379,42 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn magnet_faces_name_at_least_one_face_once_each() {
+    assert_one(
+        "[robot]\nmagnet_faces = []\n",
+        "robot.magnet_faces = []: must name at least one face",
+        &[],
+    );
+    assert_one(
+        "[robot]\nmagnet_faces = [\"front\", \"back\", \"front\"]\n",
+        "robot.magnet_faces = [\"front\", \"back\", \"front\"]: names a face twice",
+        &[],
+    );
+    assert!(Config::from_toml_str("[robot]\nmagnet_faces = [\"side\"]\n").is_err());
+}
+
+/// Two magnets describe a robot the configuration accepts and the bound plans for
+/// (`planning::bound`), but the task planner and the mission carry one part on the front
+/// magnet: the core refuses to drive it, and says so.
+#[test]
+fn the_core_refuses_a_robot_with_magnets_it_does_not_drive() {
+    let config = Config::from_toml_str("[robot]\nmagnet_faces = [\"front\", \"back\"]\n").unwrap();
+    let refused = Core::new(&config, Field::competition().start_pose()).err();
+    let Some(error) = refused else {
+        panic!("a core was built for magnets front and back");
+    };
+    assert_eq!(
+        error,
+        crate::planning::tasks::TaskError::MagnetFaces(vec![MagnetFace::Front, MagnetFace::Back])
+    );
+    assert!(
+        error
+            .to_string()
+            .starts_with("robot.magnet_faces = [\"front\", \"back\"]: the task planner"),
+        "{error}"
+    );
+    let back = Config::from_toml_str("[robot]\nmagnet_faces = [\"back\"]\n").unwrap();
+    assert!(Core::new(&back, Field::competition().start_pose()).is_err());
+}

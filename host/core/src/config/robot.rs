@@ -51,8 +51,54 @@ pub struct RobotConfig {
     /// Height of the lidar's scan plane above the floor, m. 0.20: assumption (the original
     /// sets z = 0; the plane must clear the 0.13 m walls to see only the beacons).
     pub lidar_height_m: f64,
+    /// The faces of the body that carry a magnet, each holding one part against its plate
+    /// (so the robot carries as many parts at once as it has faces here). `["front"]`: the
+    /// 5dpo robot's one electromagnet (paper §III). A back magnet too (`["front", "back"]`)
+    /// is what `ratf bench bound` can already plan for (`planning::bound`); the task planner
+    /// and the mission carry one part on the front face, and refuse any other list
+    /// (`planning::tasks::model::TaskError::MagnetFaces`).
+    pub magnet_faces: Vec<MagnetFace>,
     /// The IMU.
     pub imu: ImuConfig,
+}
+
+/// A face of the robot's square body that can carry a magnet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum MagnetFace {
+    /// The +x face, the way the robot drives forward.
+    Front,
+    /// The −x face.
+    Back,
+}
+
+impl MagnetFace {
+    /// The robot's heading, relative to the plate's inward normal, when this face touches
+    /// the plate, rad: 0 for the front face, π for the back one.
+    pub fn heading_offset_rad(self) -> f64 {
+        match self {
+            Self::Front => 0.0,
+            Self::Back => std::f64::consts::PI,
+        }
+    }
+}
+
+impl MagnetFace {
+    /// `faces` as the configuration writes them, e.g. `["front", "back"]`.
+    pub fn list(faces: &[MagnetFace]) -> String {
+        let names: Vec<String> = faces.iter().map(|face| format!("\"{face}\"")).collect();
+        format!("[{}]", names.join(", "))
+    }
+}
+
+impl std::fmt::Display for MagnetFace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Front => "front",
+            Self::Back => "back",
+        })
+    }
 }
 
 impl Default for RobotConfig {
@@ -71,6 +117,7 @@ impl Default for RobotConfig {
             lidar_y_m: 0.0,
             lidar_yaw_deg: 172.0,
             lidar_height_m: 0.20,
+            magnet_faces: vec![MagnetFace::Front],
             imu: ImuConfig::default(),
         }
     }
@@ -234,6 +281,24 @@ impl RobotConfig {
         );
         self.check_lidar_mount(c);
         self.check_imu(c);
+        self.check_magnet_faces(c);
+    }
+
+    fn check_magnet_faces(&self, c: &mut Checker<'_>) {
+        let faces = &self.magnet_faces;
+        let listed = MagnetFace::list(faces);
+        c.require("magnet_faces", &listed, !faces.is_empty(), || {
+            "must name at least one face (\"front\" or \"back\"): the robot needs a magnet to \
+             carry a part"
+                .to_owned()
+        });
+        let repeated = faces
+            .iter()
+            .enumerate()
+            .any(|(i, face)| faces[..i].contains(face));
+        c.require("magnet_faces", &listed, !repeated, || {
+            "names a face twice: each face carries at most one magnet".to_owned()
+        });
     }
 
     fn check_lidar_mount(&self, c: &mut Checker<'_>) {

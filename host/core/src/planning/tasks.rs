@@ -18,7 +18,8 @@ pub mod search;
 pub mod travel;
 
 pub use model::{
-    Action, MAX_PARTS, Model, PartState, Place, Rules, State, TaskError, TimedAction, Timing,
+    Action, MAX_PARTS, Model, PLANNED_MAGNET_FACES, PartState, Place, Rules, State, TaskError,
+    TimedAction, Timing, check_magnet_faces,
 };
 pub use original::Original;
 pub use search::BranchAndBound;

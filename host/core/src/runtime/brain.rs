@@ -15,7 +15,7 @@ use crate::kinematics::BodyTwist;
 use crate::mission::{Activity, Mission, MissionConfig, MissionEvent, search_floor};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
-    Timing, TravelTimes,
+    Timing, TravelTimes, check_magnet_faces,
 };
 use crate::referee::protocol::{Reply, Request, SlotLetters, letters_to_string};
 use crate::referee::snapshot::SnapshotCycle;
@@ -73,6 +73,7 @@ impl std::fmt::Debug for Brain {
 impl Brain {
     /// A brain for `config`'s round and policy, waiting for the part list.
     pub fn new(config: &Config) -> Result<Self, TaskError> {
+        check_magnet_faces(&config.robot.magnet_faces)?;
         let field = Field::competition();
         let competition = &config.competition;
         // Ours plans on the times of the routes it will drive; the original on straight

@@ -4,12 +4,15 @@
 //! The method relaxes every constraint it can and keeps only what physics and the rules
 //! impose, so no run of any planner can beat it:
 //!
-//! - **Order:** exact over every legal sequence of picks and drops with one part carried,
+//! - **Order:** exact over every legal sequence of picks and drops with one part carried per
+//!   magnet face (one on the competition robot),
 //!   every machine and row a colour may use ([`Rules`]: red to A, green to B, or to A as well
 //!   in rounds 1–2), every free outgoing slot, machines that turn a part at once (zero delay),
 //!   a row loaded again only once its output is empty ([`mod@search`]).
-//! - **Poses:** the magnet on the front face touches each plate: the robot's centre half the
-//!   body length (`robot.footprint_length_m / 2`) in front of the plate face, facing it. The
+//! - **Poses:** a magnet face (`robot.magnet_faces`: the front, and the back too on a robot
+//!   with two magnets) touches each plate: the robot's centre half the body length
+//!   (`robot.footprint_length_m / 2`) in front of the plate face, that face turned to it; the
+//!   robot carries one part per face at once. The
 //!   run starts at rest with the centre anywhere in the start area and any heading (the
 //!   rules let a team place the robot anywhere in it; the area is approximate).
 //! - **Paths:** the shortest path of the robot's centre around the walls and dividers grown
@@ -95,7 +98,10 @@ pub enum BoundError {
 #[derive(Clone, Debug)]
 pub struct RoundBound {
     places: Places,
-    /// Leg times between stations, row-major over [`Places::stations`].
+    /// How many magnet faces the robot has (`robot.magnet_faces`): parts it carries at once.
+    faces: u8,
+    /// Leg times between stops, row-major: each of [`Places::stations`] with each magnet
+    /// face turned to its plate (`station × faces + face`).
     legs_s: Vec<f64>,
     limits: MotionLimits,
 }
@@ -144,29 +150,40 @@ impl RoundBound {
         }
         let points: Vec<Vec2> = stations.iter().map(|(_, p)| p.position()).collect();
         let graph = space.graph(&points);
-        let n = stations.len();
-        let mut legs_s = Vec::with_capacity(n * n);
-        // From the start: anywhere in the start area, any heading, at rest.
-        legs_s.extend(
-            graph
-                .from_region(field.start_area())
-                .into_iter()
-                .map(|path| leg_time_s(&limits, path, 0.0)),
-        );
+        let faces = &config.robot.magnet_faces;
+        let stops = stations.len() * faces.len();
+        let mut legs_s = Vec::with_capacity(stops * stops);
+        // From the start: anywhere in the start area, any heading, at rest (each face's
+        // stop there the same).
+        let from_start: Vec<f64> = graph
+            .from_region(field.start_area())
+            .into_iter()
+            .flat_map(|path| faces.iter().map(move |_| leg_time_s(&limits, path, 0.0)))
+            .collect();
+        for _ in faces {
+            legs_s.extend_from_slice(&from_start);
+        }
         for (i, (_, from)) in stations.iter().enumerate().skip(1) {
             let paths = graph.from_point(i);
-            for ((to_station, to), path) in stations.iter().zip(paths) {
-                if *to_station == Station::Start {
-                    legs_s.push(f64::INFINITY);
-                } else if path.is_finite() {
-                    legs_s.push(leg_time_s(&limits, path, to.yaw_rad - from.yaw_rad));
-                } else {
-                    return Err(BoundError::Unreachable(to_station.to_string()));
+            for from_face in faces {
+                let from_yaw = from.yaw_rad + from_face.heading_offset_rad();
+                for ((to_station, to), path) in stations.iter().zip(&paths) {
+                    for to_face in faces {
+                        if *to_station == Station::Start {
+                            legs_s.push(f64::INFINITY);
+                        } else if path.is_finite() {
+                            let to_yaw = to.yaw_rad + to_face.heading_offset_rad();
+                            legs_s.push(leg_time_s(&limits, *path, to_yaw - from_yaw));
+                        } else {
+                            return Err(BoundError::Unreachable(to_station.to_string()));
+                        }
+                    }
                 }
             }
         }
         Ok(Self {
             places: Places::new(stations.into_iter().map(|(s, _)| s).collect()),
+            faces: faces.len() as u8,
             legs_s,
             limits,
         })
@@ -180,6 +197,7 @@ impl RoundBound {
         }
         let total = search(
             &self.places,
+            self.faces,
             &self.legs_s,
             &self.limits,
             Rules::for_round(round),
@@ -192,29 +210,36 @@ impl RoundBound {
     /// The bound of every arrangement of round `round`'s preset colours (round 1 `BBBB`,
     /// round 2 `BBGG`, round 3 `RGGB`): (mean, least, greatest), s.
     pub fn over_arrangements(&self, round: u8) -> Result<(f64, f64, f64), BoundError> {
-        use PartColor::{Blue, Green, Red};
-        let colours = match round {
-            1 => [Blue; 4],
-            2 => [Blue, Blue, Green, Green],
-            3 => [Red, Green, Green, Blue],
-            other => return Err(BoundError::NoSuchRound(other)),
-        };
-        let mut arrangements: Vec<[PartColor; 4]> = Vec::new();
-        for order in permutations4() {
-            let arrangement = order.map(|i| colours[i]);
-            if !arrangements.contains(&arrangement) {
-                arrangements.push(arrangement);
-            }
-        }
+        let arrangements = arrangements(round)?;
         let mut times = Vec::with_capacity(arrangements.len());
         for arrangement in arrangements {
-            times.push(self.seconds(round, arrangement.map(Some))?);
+            times.push(self.seconds(round, arrangement)?);
         }
         let mean = times.iter().sum::<f64>() / times.len() as f64;
         let least = times.iter().copied().fold(f64::INFINITY, f64::min);
         let greatest = times.iter().copied().fold(0.0, f64::max);
         Ok((mean, least, greatest))
     }
+}
+
+/// Every distinct arrangement of round `round`'s preset colours in the incoming slots
+/// (round 1 `BBBB`, round 2 `BBGG`, round 3 `RGGB`).
+fn arrangements(round: u8) -> Result<Vec<SlotLetters>, BoundError> {
+    use PartColor::{Blue, Green, Red};
+    let colours = match round {
+        1 => [Blue; 4],
+        2 => [Blue, Blue, Green, Green],
+        3 => [Red, Green, Green, Blue],
+        other => return Err(BoundError::NoSuchRound(other)),
+    };
+    let mut arrangements: Vec<SlotLetters> = Vec::new();
+    for order in permutations4() {
+        let arrangement = order.map(|i| Some(colours[i]));
+        if !arrangements.contains(&arrangement) {
+            arrangements.push(arrangement);
+        }
+    }
+    Ok(arrangements)
 }
 
 /// The 24 orders of four things.
@@ -234,6 +259,7 @@ fn permutations4() -> Vec<[usize; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::MagnetFace;
 
     fn limits() -> MotionLimits {
         MotionLimits::of(&Config::default())
@@ -295,6 +321,58 @@ mod tests {
         assert!(r1 > 8.5 / 0.729 + ramps, "{r1}");
         let half_turns = 7.0 * 0.1725 * std::f64::consts::PI / 0.729;
         assert!(r1 < 9.0 / 0.729 + ramps + half_turns, "{r1}");
+    }
+
+    fn two_magnets() -> Config {
+        let mut config = Config::default();
+        config.robot.magnet_faces = vec![MagnetFace::Front, MagnetFace::Back];
+        config
+    }
+
+    /// Issue 14 gives 14.6 / 19.0 / 24.5 s for magnets on the front and back faces, by a
+    /// computation of its own. This one, the same method with a part per face: 13.78 /
+    /// 18.44 / 25.04 s. Round 1 in hand: four 180° legs between neighbouring slots (each
+    /// 0.15 m and k·π, 1.32 s), three long legs that need no turn (picked with the front
+    /// facing the incoming wall, the robot drops with its back facing the outgoing one;
+    /// 1.83–1.87 s), the start leg (1.19 s) and seven settles (1.75 s). Pinned so a change
+    /// to the method shows.
+    #[test]
+    fn magnets_front_and_back_carry_two_parts_and_pin_the_bound() {
+        let bound = RoundBound::new(&two_magnets(), &Field::competition()).unwrap();
+        let expected = [
+            (1, 13.780, 13.780, 13.780),
+            (2, 18.438, 18.158, 18.832),
+            (3, 25.041, 24.693, 25.465),
+        ];
+        for (round, mean, least, most) in expected {
+            let got = bound.over_arrangements(round).unwrap();
+            let close = (got.0 - mean).abs() < 0.005
+                && (got.1 - least).abs() < 0.005
+                && (got.2 - most).abs() < 0.005;
+            assert!(close, "round {round}: {got:?}");
+        }
+    }
+
+    /// A robot that may carry a second part may also carry just one: never slower, for
+    /// every arrangement of every round.
+    #[test]
+    fn a_second_magnet_never_makes_a_round_slower() {
+        let field = Field::competition();
+        let one = RoundBound::new(&Config::default(), &field).unwrap();
+        let two = RoundBound::new(&two_magnets(), &field).unwrap();
+        let back_only = {
+            let mut config = Config::default();
+            config.robot.magnet_faces = vec![MagnetFace::Back];
+            RoundBound::new(&config, &field).unwrap()
+        };
+        for round in 1..=3u8 {
+            for parts in arrangements(round).unwrap() {
+                let single = one.seconds(round, parts).unwrap();
+                assert!(two.seconds(round, parts).unwrap() <= single + 1e-9);
+                // One magnet on the back instead: the same body turned round, the same bound.
+                assert!((back_only.seconds(round, parts).unwrap() - single).abs() < 1e-9);
+            }
+        }
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! The bound's exact search over every legal order of picks and drops: a shortest path
-//! (Dijkstra) over states "where the robot stands, where each part is and what colour it
-//! has", each step one leg and one pick or drop.
+//! (Dijkstra) over states "where the robot stands and which of its magnet faces it turns
+//! to the plate there, where each part is (on which face if carried) and what colour it
+//! has", each step one leg and one pick or drop. The robot carries one part per magnet face
+//! at once; with one face that is the competition robot's one part.
 
 use std::collections::{BinaryHeap, HashMap};
 use std::fmt;
@@ -72,19 +74,23 @@ impl Places {
         &self.stations
     }
 
-    fn index(&self, station: Station) -> Option<u8> {
-        self.stations
-            .iter()
-            .position(|s| *s == station)
-            .map(|i| i as u8)
+    fn index(&self, station: Station) -> Option<usize> {
+        self.stations.iter().position(|s| *s == station)
     }
+}
+
+/// Where the robot stops: a station with one of its magnet faces turned to the plate, as
+/// the index of its row and column in the leg-time matrix (`station × faces + face`).
+fn stop(station: usize, face: u8, faces: u8) -> u8 {
+    (station * usize::from(faces) + usize::from(face)) as u8
 }
 
 /// Where a part is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum Where {
     Incoming(u8),
-    Carried,
+    /// On the robot's magnet face `f` (an index into the faces the search was given).
+    Carried(u8),
     /// On machine row `r`'s output, already turned.
     Output(u8),
     Delivered(u8),
@@ -98,16 +104,12 @@ struct Part {
 
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 struct State {
-    /// Index into [`Places::stations`].
+    /// The stop the robot is at ([`stop`]).
     robot: u8,
     parts: Vec<Part>,
 }
 
 impl State {
-    fn carried(&self) -> Option<usize> {
-        self.parts.iter().position(|p| p.at == Where::Carried)
-    }
-
     fn occupied(&self, at: Where) -> bool {
         self.parts.iter().any(|p| p.at == at)
     }
@@ -120,18 +122,20 @@ impl State {
 }
 
 /// The least time from the start to every part delivered, s (`None` when no legal order
-/// exists or a station is missing): legs from `legs_s` (row-major over `places`), a settle
-/// at each pick and drop but the last.
+/// exists or a station is missing): legs from `legs_s` (row-major over the stops, each
+/// station of `places` with each of the robot's `faces` magnet faces, `station × faces +
+/// face`), a settle at each pick and drop but the last.
 pub fn search(
     places: &Places,
+    faces: u8,
     legs_s: &[f64],
     limits: &MotionLimits,
     rules: Rules,
     parts: SlotLetters,
 ) -> Option<f64> {
-    let n = places.stations.len();
+    let stops = places.stations.len() * usize::from(faces);
     let start = State {
-        robot: places.index(Station::Start)?,
+        robot: stop(places.index(Station::Start)?, 0, faces),
         parts: parts
             .iter()
             .enumerate()
@@ -156,11 +160,12 @@ pub fn search(
                 time - limits.release_settle_s
             });
         }
-        for (station, next, settle) in moves(places, rules, &state) {
+        for (station, face, next, settle) in moves(rules, faces, &state) {
             let Some(to) = places.index(station) else {
                 continue;
             };
-            let leg = legs_s[usize::from(state.robot) * n + usize::from(to)];
+            let to = stop(to, face, faces);
+            let leg = legs_s[usize::from(state.robot) * stops + usize::from(to)];
             let candidate = time + leg + settle(limits);
             let next = State { robot: to, ..next };
             if best.get(&next).is_none_or(|&b| candidate < b) {
@@ -174,58 +179,68 @@ pub fn search(
 
 type Settle = fn(&MotionLimits) -> f64;
 
-/// Every pick or drop possible from `state`: where the robot goes, the state after (robot
-/// not yet moved) and the dwell there.
-fn moves(places: &Places, rules: Rules, state: &State) -> Vec<(Station, State, Settle)> {
+/// Every pick or drop possible from `state` for a robot with `faces` magnet faces: where
+/// the robot goes, which face it turns to the plate there, the state after (robot not yet
+/// moved) and the dwell there. A free face may pick any part in reach; a face holding a
+/// part may drop it wherever that part may go.
+fn moves(rules: Rules, faces: u8, state: &State) -> Vec<(Station, u8, State, Settle)> {
     let mut moves = Vec::new();
     let with = |part: usize, at: Where, color: PartColor| {
         let mut next = state.clone();
         next.parts[part] = Part { at, color };
         next
     };
-    match state.carried() {
-        None => {
-            for (i, part) in state.parts.iter().enumerate() {
-                let station = match part.at {
-                    Where::Incoming(slot) => Station::Incoming(usize::from(slot)),
-                    Where::Output(row) => Station::MachineOutput(usize::from(row)),
-                    Where::Carried | Where::Delivered(_) => continue,
-                };
-                moves.push((
-                    station,
-                    with(i, Where::Carried, part.color),
-                    (|l| l.grip_settle_s) as Settle,
-                ));
+    for face in 0..faces {
+        match state
+            .parts
+            .iter()
+            .position(|p| p.at == Where::Carried(face))
+        {
+            None => {
+                for (i, part) in state.parts.iter().enumerate() {
+                    let station = match part.at {
+                        Where::Incoming(slot) => Station::Incoming(usize::from(slot)),
+                        Where::Output(row) => Station::MachineOutput(usize::from(row)),
+                        Where::Carried(_) | Where::Delivered(_) => continue,
+                    };
+                    moves.push((
+                        station,
+                        face,
+                        with(i, Where::Carried(face), part.color),
+                        (|l| l.grip_settle_s) as Settle,
+                    ));
+                }
             }
-        }
-        Some(i) => {
-            let color = state.parts[i].color;
-            if color == PartColor::Blue {
-                for slot in 0..4u8 {
-                    if !state.occupied(Where::Delivered(slot)) {
+            Some(i) => {
+                let color = state.parts[i].color;
+                if color == PartColor::Blue {
+                    for slot in 0..4u8 {
+                        if !state.occupied(Where::Delivered(slot)) {
+                            moves.push((
+                                Station::Outgoing(usize::from(slot)),
+                                face,
+                                with(i, Where::Delivered(slot), color),
+                                (|l| l.release_settle_s) as Settle,
+                            ));
+                        }
+                    }
+                }
+                for (row, kind) in ROWS.iter().enumerate() {
+                    let row = row as u8;
+                    if let Some(turned) = rules.transform(*kind, color)
+                        && !state.occupied(Where::Output(row))
+                    {
                         moves.push((
-                            Station::Outgoing(usize::from(slot)),
-                            with(i, Where::Delivered(slot), color),
+                            Station::MachineInput(usize::from(row)),
+                            face,
+                            with(i, Where::Output(row), turned),
                             (|l| l.release_settle_s) as Settle,
                         ));
                     }
                 }
             }
-            for (row, kind) in ROWS.iter().enumerate() {
-                let row = row as u8;
-                if let Some(turned) = rules.transform(*kind, color)
-                    && !state.occupied(Where::Output(row))
-                {
-                    moves.push((
-                        Station::MachineInput(usize::from(row)),
-                        with(i, Where::Output(row), turned),
-                        (|l| l.release_settle_s) as Settle,
-                    ));
-                }
-            }
         }
     }
-    moves.retain(|(station, _, _)| places.index(*station).is_some());
     moves
 }
 
@@ -285,7 +300,7 @@ mod tests {
     fn a_blue_part_goes_straight_out() {
         let (places, legs) = line();
         let parts = [Some(PartColor::Blue), None, None, None];
-        let t = search(&places, &legs, &no_dwell(), Rules::for_round(1), parts);
+        let t = search(&places, 1, &legs, &no_dwell(), Rules::for_round(1), parts);
         // Start → incoming (1 s) → outgoing (1 s).
         assert_eq!(t, Some(2.0));
     }
@@ -294,7 +309,7 @@ mod tests {
     fn a_green_part_visits_machine_b_first() {
         let (places, legs) = line();
         let parts = [Some(PartColor::Green), None, None, None];
-        let t = search(&places, &legs, &no_dwell(), Rules::for_round(3), parts);
+        let t = search(&places, 1, &legs, &no_dwell(), Rules::for_round(3), parts);
         // Start → incoming 1 → B input 2 → B output 1 → outgoing 2.
         assert_eq!(t, Some(6.0));
     }
@@ -308,16 +323,47 @@ mod tests {
             ..no_dwell()
         };
         let parts = [Some(PartColor::Green), None, None, None];
-        let t = search(&places, &legs, &limits, Rules::for_round(3), parts);
+        let t = search(&places, 1, &legs, &limits, Rules::for_round(3), parts);
         // Two picks and one timed drop.
         assert_eq!(t, Some(6.0 + 0.25 + 0.25 + 0.5));
+    }
+
+    /// Two blue parts on a line of stations, one second apart per step, no turn cost: one
+    /// face carries them out one at a time (start → I1 → O1 → I2 → O2: 1 + 2 + 1 + 2 s), two
+    /// faces collect both first (start → I1 → I2 → O1 → O2: 1 + 1 + 1 + 1 s).
+    #[test]
+    fn a_second_face_carries_two_parts_at_once() {
+        let stations = vec![
+            Station::Start,
+            Station::Incoming(0),
+            Station::Incoming(1),
+            Station::Outgoing(0),
+            Station::Outgoing(1),
+        ];
+        let n = stations.len();
+        let places = Places::new(stations);
+        let parts = [Some(PartColor::Blue), Some(PartColor::Blue), None, None];
+        let rules = Rules::for_round(1);
+        let one: Vec<f64> = (0..n * n).map(|k| (k / n).abs_diff(k % n) as f64).collect();
+        assert_eq!(
+            search(&places, 1, &one, &no_dwell(), rules, parts),
+            Some(6.0)
+        );
+        let stops = 2 * n;
+        let two: Vec<f64> = (0..stops * stops)
+            .map(|k| (k / stops / 2).abs_diff(k % stops / 2) as f64)
+            .collect();
+        assert_eq!(
+            search(&places, 2, &two, &no_dwell(), rules, parts),
+            Some(4.0)
+        );
     }
 
     #[test]
     fn a_red_part_without_machine_a_has_no_order() {
         let (places, legs) = line();
         let parts = [Some(PartColor::Red), None, None, None];
-        let t = search(&places, &legs, &no_dwell(), Rules::for_round(3), parts);
+        let t = search(&places, 1, &legs, &no_dwell(), Rules::for_round(3), parts);
         assert_eq!(t, None);
     }
 }

@@ -13,6 +13,7 @@
 use std::fmt;
 
 use super::travel::{Location, TravelMatrix, TravelTimes};
+use crate::config::MagnetFace;
 use crate::field::MachineKind;
 use crate::field::PartColor;
 use crate::referee::protocol::SlotLetters;
@@ -414,6 +415,29 @@ pub enum TaskError {
     /// No sequence of actions finishes every part (e.g. no free outgoing slot).
     #[error("no sequence of actions finishes every part from this state")]
     NoPlan,
+    /// The robot's magnets are not the one on the front face that the planner's actions
+    /// (one part carried from its pick to its drop) and the mission drive.
+    #[error(
+        "robot.magnet_faces = {listed}: the task planner and the mission carry one part, on \
+         the front magnet (robot.magnet_faces = [\"front\"]); `ratf bench bound` plans for other \
+         faces",
+        listed = MagnetFace::list(.0)
+    )]
+    MagnetFaces(Vec<MagnetFace>),
+}
+
+/// The magnet faces the task planner's actions carry a part on: one part at a time, on the
+/// front face (each [`Action`] takes one part from its pick to its drop).
+pub const PLANNED_MAGNET_FACES: [MagnetFace; 1] = [MagnetFace::Front];
+
+/// `Ok` when the robot's `faces` are the ones the planner plans for
+/// ([`PLANNED_MAGNET_FACES`]).
+pub fn check_magnet_faces(faces: &[MagnetFace]) -> Result<(), TaskError> {
+    if faces == PLANNED_MAGNET_FACES {
+        Ok(())
+    } else {
+        Err(TaskError::MagnetFaces(faces.to_vec()))
+    }
 }
 
 /// The planner's fixed inputs: travel times, durations, rules.
