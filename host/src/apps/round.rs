@@ -847,6 +847,7 @@ pub fn scores(field: &Field, rules: Rules, slot: u8, color: PartColor) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::apps::time_split::TURNING_RAD_S;
 
     /// Round `round` at seed 1 in the ideal world: the regression pins of the first wave's
     /// world, which both policies score in.
@@ -952,6 +953,19 @@ mod tests {
                 "{report:?}"
             );
             assert!(report.time_split.settling_s > 0.0 && report.time_split.driving_s > 0.0);
+            if row.round == 1 {
+                // Round 1 turns the heading by π seven times: the ticks that count as
+                // turning must hold what the rest (|ω| ≤ TURNING_RAD_S) cannot have turned,
+                // at no more than the yaw-rate limit.
+                let t = &report.time_split;
+                let held_s = t.total_s() - t.turning_s;
+                let least_s = (7.0 * std::f64::consts::PI - TURNING_RAD_S * held_s)
+                    / config.navigation.max_yaw_rate_rad_s;
+                assert!(
+                    t.turning_s >= least_s,
+                    "{t:?}: at least {least_s} s turning"
+                );
+            }
         }
         let json = serde_json::to_value(&rows).unwrap();
         assert!(

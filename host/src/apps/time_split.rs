@@ -5,8 +5,8 @@
 //!
 //! | class | when |
 //! |---|---|
-//! | driving | going to a slot, translation dominating (`|v| ≥ k·|ω|`) |
-//! | turning | going to a slot, rotation dominating (`k·|ω| > |v|`, `k = lx + ly`) |
+//! | driving | going to a slot with the heading held (`|ω| ≤` [`TURNING_RAD_S`]) |
+//! | turning | going to a slot while the heading turns (`|ω| >` [`TURNING_RAD_S`]), on the spot or moving on |
 //! | docking | going to a slot within `dock_length_m + dock_creep_m` of its pick or drop pose, and reversing out of a slot |
 //! | settling | the magnet's grip or release dwell |
 //! | waiting | asking the planner or waiting for a machine |
@@ -22,9 +22,10 @@ use serde::Serialize;
 /// Seconds per class (module documentation).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct TimeSplit {
-    /// Going to a slot, mostly translating, s.
+    /// Going to a slot with the heading held, s.
     pub driving_s: f64,
-    /// Going to a slot, mostly rotating, s.
+    /// Going to a slot while the heading turns, s (a half turn per carry with one magnet:
+    /// the bound charges each `k·π` of the fastest wheel's travel, `planning::bound`).
     pub turning_s: f64,
     /// The last stretch into a slot and the reverse out of it, s.
     pub docking_s: f64,
@@ -81,11 +82,15 @@ enum Class {
     Waiting,
 }
 
+/// Commanded yaw rate above which a tick counts as turning, rad/s. 0.3: the heading
+/// feedback (`navigation.heading_gain_per_s`, 6/s) holding a heading within 3° asks for
+/// less; a half turn spread over a 0.6 m turn window at 0.3 m/s asks for 1.6 rad/s.
+pub const TURNING_RAD_S: f64 = 0.3;
+
 /// A tap noting each host tick's class; [`TimeSplitTap::split`] sums them over a span.
 #[derive(Debug)]
 pub struct TimeSplitTap {
     kinematics: Mecanum,
-    yaw_arm_m: f64,
     dock_zone_m: f64,
     field: Field,
     ticks: Vec<(u64, Class)>,
@@ -96,7 +101,6 @@ impl TimeSplitTap {
     pub fn new(config: &Config) -> Self {
         Self {
             kinematics: Mecanum::new(&config.robot),
-            yaw_arm_m: config.robot.half_wheelbase_sum_m(),
             dock_zone_m: config.navigation.dock_length_m + config.navigation.dock_creep_m,
             field: Field::competition(),
             ticks: Vec::new(),
@@ -142,8 +146,7 @@ impl Tap for TimeSplitTap {
                     let twist = self
                         .kinematics
                         .forward(wheels.wheel_speeds_rad_s.map(f64::from));
-                    let translating = twist.vx_m_s.hypot(twist.vy_m_s);
-                    if self.yaw_arm_m * twist.omega_rad_s.abs() > translating {
+                    if twist.omega_rad_s.abs() > TURNING_RAD_S {
                         Class::Turning
                     } else {
                         Class::Driving
