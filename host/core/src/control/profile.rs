@@ -153,7 +153,13 @@ pub fn corner_speed_m_s(turn_rad: f64, accel_m_s2: f64, blend_m: f64) -> f64 {
 /// while the robot is still short of it and faster than the cap (seed 58, round 1: 0.2 m/s
 /// at the corner, 10 mm past the line).
 pub const SLOT_CORNER_M_S: f64 = 0.08;
-/// Length of the stretch before that corner held at [`SLOT_CORNER_M_S`], m.
+/// Length of the stretch before that corner held at [`SLOT_CORNER_M_S`], m. Braking at
+/// 2 m/s², the wheels trail the command by about a·τ ≈ 0.2 m/s (the motors' 0.1 s time
+/// constant) and come down to the cap some a·τ² + cap·τ ≈ 3 cm after the command does: a
+/// 3 cm stretch was measured at `d89c760` (realistic world, calibrated): in seed 58's round
+/// 1 the carried part touches a divider of outgoing slot 3 with 1 cm and not with 3 cm, but
+/// the tuning seeds 61–110 took 35.4 / 37.9 / 48.8 → 35.8 / 38.5 / 49.4 s per round (0
+/// collisions either way): not kept.
 const SLOT_CORNER_ZONE_M: f64 = 0.01;
 /// That corner is capped when the route's goal lies within this much of it, m: an outgoing
 /// slot entered from the row under machine B (8 cm); a slot approached down a long free
