@@ -82,9 +82,7 @@ impl MagnetFace {
             Self::Back => std::f64::consts::PI,
         }
     }
-}
 
-impl MagnetFace {
     /// `faces` as the configuration writes them, e.g. `["front", "back"]`.
     pub fn list(faces: &[MagnetFace]) -> String {
         let names: Vec<String> = faces.iter().map(|face| format!("\"{face}\"")).collect();
