@@ -141,8 +141,9 @@ fn a_calibration_is_written_as_a_configuration_that_checks() {
 }
 
 /// `ratf bench bound --magnet-faces front,back --json`: the bound for a robot with a second
-/// magnet on its back, below the competition robot's in every round; `ratf sim` with such
-/// a robot file says why it cannot drive it instead of running.
+/// magnet on its back, below the competition robot's in every round, and the same from a
+/// robot file naming both faces; `ratf sim` and `ratf config --check` with that file say why
+/// the robot cannot drive it.
 #[test]
 fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
     let bound = |faces: &str| {
@@ -179,11 +180,25 @@ fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
         .arg(&robot)
         .output()
         .expect("ratf sim runs");
+    let check = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(["config", "--check"])
+        .arg(&robot)
+        .output()
+        .expect("ratf config runs");
+    let from_file = Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(["bench", "bound", "--json", "--config"])
+        .arg(&robot)
+        .output()
+        .expect("ratf bench bound runs");
     let _ = std::fs::remove_dir_all(&dir);
-    let stderr = String::from_utf8_lossy(&sim.stderr);
-    assert!(!sim.status.success());
-    assert!(
-        stderr.contains("the task planner and the mission carry one part"),
-        "{stderr}"
-    );
+    for refused in [&sim, &check] {
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(!refused.status.success(), "{stderr}");
+        assert!(
+            stderr.contains("the task planner and the mission carry one part"),
+            "{stderr}"
+        );
+    }
+    assert!(from_file.status.success());
+    assert_eq!(last_json_line(&from_file.stdout), two);
 }

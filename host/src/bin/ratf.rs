@@ -683,7 +683,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     Config::load(&path)
                 };
                 match loaded {
-                    Ok(_) => println!("{}: ok", path.display()),
+                    Ok(config) => {
+                        // Valid values the robot's core still cannot drive (magnet faces
+                        // the task planner does not plan for) are no "ok" either.
+                        let start = Field::competition().start_pose();
+                        if let Err(error) = ratf_core::runtime::Core::new(&config, start) {
+                            eprintln!("{}: the robot cannot run with it: {error}", path.display());
+                            std::process::exit(1);
+                        }
+                        println!("{}: ok", path.display());
+                    }
                     Err(ConfigError::Invalid { issues, .. }) => {
                         eprintln!("{}: {} invalid value(s):", path.display(), issues.len());
                         for issue in issues {
