@@ -353,11 +353,15 @@ fn wild() -> impl Strategy<Value = f64> {
 }
 
 proptest! {
+    // Validation is cheap and runs on every case; building a core (its planner times every
+    // route: about 0.3 s in the test profile) on about a quarter of the accepted ones, so
+    // that the test takes some 25 s instead of 90.
     #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn validation_never_panics_and_what_it_accepts_builds_a_core(
         changes in prop::collection::vec((0..KEYS.len(), value()), 1..4),
+        build_a_core in prop::bool::weighted(0.25),
     ) {
         let mut config = Config::default();
         for &(key, value) in &changes {
@@ -373,7 +377,7 @@ proptest! {
             // Every issue names a key and says why.
             prop_assert!(issue.key.contains('.') && !issue.reason.is_empty(), "{issue}");
         }
-        if issues.is_empty() {
+        if issues.is_empty() && build_a_core {
             let core = Core::new(&config, Field::competition().start_pose());
             prop_assert!(core.is_ok(), "{:?}", core.err());
         }
