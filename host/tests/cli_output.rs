@@ -1,7 +1,17 @@
 //! The `ratf` binary as a user runs it: piped into a reader that stops early.
 
+mod common;
+
 use std::io::{BufRead, BufReader};
+use std::path::Path;
 use std::process::{Command, Stdio};
+
+use common::{ratf, ratf_ok};
+
+/// `path` as an argument (the temporary folder's paths are UTF-8).
+fn arg(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
 
 /// `ratf sim | head -1`: once the reader is gone the program ends quietly (exit 0, nothing
 /// on stderr) instead of panicking on the broken pipe.
@@ -41,34 +51,15 @@ fn last_json_line(stdout: &[u8]) -> serde_json::Value {
 #[test]
 fn a_simulated_round_is_recorded_and_replays_without_divergence() {
     let out_dir = std::env::temp_dir().join(format!("ratf-cli-replay-{}", std::process::id()));
-    let sim = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(["sim", "--round", "1", "--json", "--out"])
-        .arg(&out_dir)
-        .output()
-        .expect("ratf sim runs");
-    assert!(
-        sim.status.success(),
-        "{}",
-        String::from_utf8_lossy(&sim.stderr)
-    );
+    let sim = ratf_ok(["sim", "--round", "1", "--json", "--out", arg(&out_dir)]);
     let text = String::from_utf8_lossy(&sim.stdout);
     let recording = out_dir.join("sim-round1-seed1-ours.mcap");
     assert!(
         text.contains(&format!("ratf replay {}", recording.display())),
         "{text}"
     );
-    let replay = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .arg("replay")
-        .arg(&recording)
-        .arg("--json")
-        .output()
-        .expect("ratf replay runs");
+    let replay = ratf_ok(["replay", arg(&recording), "--json"]);
     let _ = std::fs::remove_dir_all(&out_dir);
-    assert!(
-        replay.status.success(),
-        "{}",
-        String::from_utf8_lossy(&replay.stderr)
-    );
     let summary = last_json_line(&replay.stdout);
     assert!(summary["inputs"].as_u64().unwrap() > 10_000, "{summary}");
     assert_eq!(summary["divergences"], 0, "{summary}");
@@ -80,11 +71,7 @@ fn a_simulated_round_is_recorded_and_replays_without_divergence() {
 fn replaying_something_that_is_not_a_recording_says_so() {
     let path = std::env::temp_dir().join(format!("ratf-not-a-recording-{}", std::process::id()));
     std::fs::write(&path, b"not an MCAP file").unwrap();
-    let replay = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .arg("replay")
-        .arg(&path)
-        .output()
-        .expect("ratf replay runs");
+    let replay = ratf(["replay", arg(&path)]);
     let _ = std::fs::remove_file(&path);
     let stderr = String::from_utf8_lossy(&replay.stderr);
     assert!(!replay.status.success());
@@ -99,33 +86,16 @@ fn a_calibration_is_written_as_a_configuration_that_checks() {
     let dir = std::env::temp_dir().join(format!("ratf-cli-calibrate-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temporary folder");
     let written = dir.join("calibrated.toml");
-    let calibrate = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args([
-            "calibrate",
-            "--world",
-            "realistic",
-            "--seed",
-            "3",
-            "--write",
-        ])
-        .arg(&written)
-        .output()
-        .expect("ratf calibrate runs");
-    assert!(
-        calibrate.status.success(),
-        "{}",
-        String::from_utf8_lossy(&calibrate.stderr)
-    );
-    let check = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(["config", "--check"])
-        .arg(&written)
-        .output()
-        .expect("ratf config runs");
-    assert!(
-        check.status.success(),
-        "{}",
-        String::from_utf8_lossy(&check.stderr)
-    );
+    ratf_ok([
+        "calibrate",
+        "--world",
+        "realistic",
+        "--seed",
+        "3",
+        "--write",
+        arg(&written),
+    ]);
+    ratf_ok(["config", "--check", arg(&written)]);
     let text = std::fs::read_to_string(&written).expect("the written file");
     let _ = std::fs::remove_dir_all(&dir);
     let config: toml::Table = toml::from_str(&text).expect("TOML");
@@ -147,16 +117,7 @@ fn a_calibration_is_written_as_a_configuration_that_checks() {
 #[test]
 fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
     let bound = |faces: &str| {
-        let output = Command::new(env!("CARGO_BIN_EXE_ratf"))
-            .args(["bench", "bound", "--json", "--magnet-faces", faces])
-            .output()
-            .expect("ratf bench bound runs");
-        assert!(
-            output.status.success(),
-            "{}",
-            String::from_utf8_lossy(&output.stderr)
-        );
-        last_json_line(&output.stdout)
+        last_json_line(&ratf_ok(["bench", "bound", "--json", "--magnet-faces", faces]).stdout)
     };
     let one = bound("front");
     let two = bound("front,back");
@@ -173,23 +134,17 @@ fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
     std::fs::create_dir_all(&dir).unwrap();
     let robot = dir.join("two-magnets.toml");
     std::fs::write(&robot, "[robot]\nmagnet_faces = [\"front\", \"back\"]\n").unwrap();
-    let sim = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(["sim", "--round", "1", "--out"])
-        .arg(&dir)
-        .arg("--config")
-        .arg(&robot)
-        .output()
-        .expect("ratf sim runs");
-    let check = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(["config", "--check"])
-        .arg(&robot)
-        .output()
-        .expect("ratf config runs");
-    let from_file = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(["bench", "bound", "--json", "--config"])
-        .arg(&robot)
-        .output()
-        .expect("ratf bench bound runs");
+    let sim = ratf([
+        "sim",
+        "--round",
+        "1",
+        "--out",
+        arg(&dir),
+        "--config",
+        arg(&robot),
+    ]);
+    let check = ratf(["config", "--check", arg(&robot)]);
+    let from_file = ratf(["bench", "bound", "--json", "--config", arg(&robot)]);
     let _ = std::fs::remove_dir_all(&dir);
     for refused in [&sim, &check] {
         let stderr = String::from_utf8_lossy(&refused.stderr);

@@ -3,20 +3,13 @@
 //! +30/+45 in the w pattern) and `ratf tune gains` on the identified model, through the
 //! binary.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
+use std::path::PathBuf;
+
+/// `ratf ARGS`, which must succeed; its stdout.
 fn ratf(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_ratf"))
-        .args(args)
-        .output()
-        .expect("ratf runs");
-    assert!(
-        out.status.success(),
-        "ratf {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).expect("utf-8")
+    String::from_utf8(common::ratf_ok(args).stdout).expect("utf-8")
 }
 
 fn excerpt() -> PathBuf {

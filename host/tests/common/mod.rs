@@ -3,10 +3,11 @@
 //! (`ratf sim --serve-pty`) and a robot configuration pointing at it.
 #![allow(dead_code)]
 
+use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
@@ -187,6 +188,28 @@ pub fn robot_config(dir: &Path, lidar: &Path, port: u16) -> PathBuf {
     );
     std::fs::write(&path, text).expect("config");
     path
+}
+
+/// `ratf ARGS` run to its end, its output captured.
+pub fn ratf<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ratf"))
+        .args(args)
+        .output()
+        .expect("ratf runs")
+}
+
+/// `ratf ARGS` run to its end, which must exit 0 (the test fails with its stderr); its
+/// output.
+pub fn ratf_ok<S: AsRef<OsStr>>(args: impl IntoIterator<Item = S>) -> Output {
+    let args: Vec<S> = args.into_iter().collect();
+    let output = ratf(&args);
+    assert!(
+        output.status.success(),
+        "ratf {:?}: {}",
+        args.iter().map(|a| a.as_ref()).collect::<Vec<_>>(),
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
 }
 
 /// `ratf ARGS` to its end within `timeout`, which must be 0; what it printed.
