@@ -271,19 +271,23 @@ impl Ord for Entry {
 mod tests {
     use super::*;
 
-    /// Stations on a line, one second apart per index step, no dwell: the search's answer
-    /// can be worked out by hand.
+    /// `stations` on a line, one second apart per index step (one magnet face): the
+    /// search's answer can be worked out by hand.
+    fn stations_on_a_line(stations: Vec<Station>) -> (Places, Vec<f64>) {
+        let n = stations.len();
+        let legs = (0..n * n).map(|k| (k / n).abs_diff(k % n) as f64).collect();
+        (Places::new(stations), legs)
+    }
+
+    /// The start, incoming 1, outgoing 1 and machine B's input and output on a line.
     fn line() -> (Places, Vec<f64>) {
-        let stations = vec![
+        stations_on_a_line(vec![
             Station::Start,
             Station::Incoming(0),
             Station::Outgoing(0),
             Station::MachineInput(2),
             Station::MachineOutput(2),
-        ];
-        let n = stations.len();
-        let legs = (0..n * n).map(|k| (k / n).abs_diff(k % n) as f64).collect();
-        (Places::new(stations), legs)
+        ])
     }
 
     fn no_dwell() -> MotionLimits {
@@ -333,18 +337,16 @@ mod tests {
     /// faces collect both first (start → I1 → I2 → O1 → O2: 1 + 1 + 1 + 1 s).
     #[test]
     fn a_second_face_carries_two_parts_at_once() {
-        let stations = vec![
+        let (places, one) = stations_on_a_line(vec![
             Station::Start,
             Station::Incoming(0),
             Station::Incoming(1),
             Station::Outgoing(0),
             Station::Outgoing(1),
-        ];
-        let n = stations.len();
-        let places = Places::new(stations);
+        ]);
+        let n = places.stations().len();
         let parts = [Some(PartColor::Blue), Some(PartColor::Blue), None, None];
         let rules = Rules::for_round(1);
-        let one: Vec<f64> = (0..n * n).map(|k| (k / n).abs_diff(k % n) as f64).collect();
         assert_eq!(
             search(&places, 1, &one, &no_dwell(), rules, parts),
             Some(6.0)
