@@ -359,10 +359,18 @@ impl RouteNavigator {
     /// on our road map, `planning::our_map`, and `control::follower`) or the original's (its
     /// routes on its graph and `control::original`).
     pub fn new(config: &Config, preset: Driving) -> Self {
-        let field = Field::competition();
-        let graph = match preset {
-            Driving::Ours => our_graph(&field, config.robot.footprint_length_m),
-            Driving::Original => field.waypoints().clone(),
+        // Ours docks where its own magnet meets the plate; the original at its fixed poses.
+        let (field, graph) = match preset {
+            Driving::Ours => {
+                let field = config.robot.field();
+                let graph = our_graph(&field, &Footprint::of_robot(&config.robot, true));
+                (field, graph)
+            }
+            Driving::Original => {
+                let field = Field::competition();
+                let graph = field.waypoints().clone();
+                (field, graph)
+            }
         };
         Self {
             map: RoadMap::new(graph),
@@ -443,11 +451,7 @@ impl Navigator for RouteNavigator {
                         slot.pick_pose
                             .compose(Pose2::new(0.0, -self.held_part_across_m, 0.0));
                 }
-                let footprint = Footprint {
-                    length_m: self.config.robot.footprint_length_m,
-                    width_m: self.config.robot.footprint_width_m,
-                    carrying: !dock,
-                };
+                let footprint = Footprint::of_robot(&self.config.robot, !dock);
                 let space = FreeSpace::new(
                     &self.field,
                     &[],

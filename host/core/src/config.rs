@@ -379,6 +379,16 @@ mod tests {
             keys_of("[referee]\nserver_port = 0"),
             ["referee.server_port"]
         );
+        assert_eq!(
+            keys_of("[robot]\nbody_center_y_m = 0.06"),
+            ["robot.body_center_y_m"]
+        );
+        // The lidar stands within the body wherever the body stands.
+        assert_eq!(
+            keys_of("[robot]\nbody_center_x_m = -0.05\nlidar_x_m = 0.11"),
+            ["robot.lidar_x_m"]
+        );
+        assert!(Config::from_toml_str("[robot]\nbody_center_x_m = 0.05\nlidar_x_m = 0.19").is_ok());
         let both = keys_of("[traction]\nrobot_mass_kg = 0.0\n[link]\nmega_port = ' '");
         assert_eq!(both, ["traction.robot_mass_kg", "link.mega_port"]);
         let e = Config::from_toml_str("[robot]\nwheel_diameter_m = 0.0").unwrap_err();
@@ -387,6 +397,21 @@ mod tests {
                 .contains("robot.wheel_diameter_m = 0: must be within 0.01 … 0.3 m ("),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_pick_standoff_follows_the_front_face() {
+        let mut robot = RobotConfig::default();
+        assert_eq!(robot.pick_standoff_m(), crate::field::PICK_STANDOFF_M);
+        robot.footprint_length_m = 0.31;
+        robot.body_center_x_m = 0.012;
+        // The front face 0.167 m out, the magnet 15 mm beyond it.
+        assert!((robot.front_face_m() - 0.167).abs() < 1e-12);
+        assert!((robot.pick_standoff_m() - 0.182).abs() < 1e-12);
+        let field = robot.field();
+        let slot = field.incoming_slot(0).unwrap();
+        let standoff = slot.pick_pose.position().distance(slot.plate_face_center);
+        assert!((standoff - 0.182).abs() < 1e-12, "{standoff}");
     }
 
     #[test]

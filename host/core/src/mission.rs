@@ -1453,14 +1453,7 @@ mod tests {
                 todo,
                 ..Script::default()
             },
-            FreeSpace::empty(
-                Footprint {
-                    length_m: 0.30,
-                    width_m: 0.30,
-                    carrying: false,
-                },
-                LOOK_CLEARANCE_M,
-            ),
+            FreeSpace::empty(Footprint::centred(0.30, 0.30, false), LOOK_CLEARANCE_M),
             slot_poses,
         )
     }
@@ -1696,11 +1689,7 @@ mod tests {
     /// the part's corner into a divider of machine B, and pushed there for 25 s.
     #[test]
     fn a_part_found_on_the_floor_is_reversed_off_before_its_carry_short_of_the_walls_behind() {
-        let body = Footprint {
-            length_m: 0.30,
-            width_m: 0.30,
-            carrying: false,
-        };
+        let body = Footprint::centred(0.30, 0.30, false);
         // Where the part was found, and how far the robot reversed before the carry.
         // Straight back along its heading.
         let carry_after_finding = |floor: FreeSpace| {

@@ -25,12 +25,14 @@ use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::geometry::{Pose2, Vec2, wrap_angle};
 use ratf_core::field::stations::{
-    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M, PartColor, Slot, SlotKind,
+    MachineKind, PART_DEPTH_M, PART_WIDTH_M, PartColor, Slot, SlotKind, pick_standoff_m,
 };
 use ratf_core::field::waypoints::WaypointId;
 use std::f64::consts::PI;
 
 use crate::truth::PartSeat;
+#[cfg(doc)]
+use ratf_core::field::PICK_STANDOFF_M;
 
 /// Where a part is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,9 +54,6 @@ pub struct Part {
     pub place: PartPlace,
 }
 
-/// Half of the default 30 cm body, m: the front face [`PICK_STANDOFF_M`] was set from.
-const DEFAULT_FRONT_M: f64 = 0.150;
-
 /// Where the switch and the magnet reach. Assumptions (the original's gripper is not
 /// documented beyond "micro-switch with roller lever" and "Grove electromagnet").
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,9 +67,9 @@ pub struct Gripper {
     pub lateral_tolerance_m: f64,
     /// Largest angle between the robot's heading and the plate's inward normal, rad (15°).
     pub angle_tolerance_rad: f64,
-    /// Distance from the robot centre to the magnet's face, m: [`PICK_STANDOFF_M`] on the
-    /// default 30 cm body, so the magnet stands 15 mm proud of the front face and a held
-    /// plate is where it is at a slot's pick pose.
+    /// Distance from the robot centre to the magnet's face, m: 15 mm beyond the front face
+    /// ([`pick_standoff_m`]; [`PICK_STANDOFF_M`] on the default 30 cm body), so a held plate
+    /// is where it is at the pick pose of a robot that knows its outline.
     pub magnet_m: f64,
 }
 
@@ -82,7 +81,7 @@ impl Gripper {
             reach_m: 0.020,
             lateral_tolerance_m: 0.025,
             angle_tolerance_rad: 15f64.to_radians(),
-            magnet_m: PICK_STANDOFF_M + (front_m - DEFAULT_FRONT_M),
+            magnet_m: pick_standoff_m(front_m),
         }
     }
 }

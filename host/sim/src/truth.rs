@@ -25,7 +25,7 @@
 //! | part's gap to the slot's back wall | U(0, 5) mm \[A, COMP\] | U(0, 15) mm |
 //! | part yaw in its slot | U(±3°) \[A\] | U(±8°) |
 //! | body length and width | config + U(±5 mm) \[A\] | config + U(±10 mm) |
-//! | body centre from the wheels' centre | U(±5 mm) per axis \[A\] | U(±15 mm) |
+//! | body centre from the wheels' centre | config (`robot.body_center_x_m`, `_y_m`) + U(±5 mm) per axis \[A\] | config + U(±15 mm) |
 //! | Mega → host USB: bridge flush | every 4.096 ms, phase U(0, 4.096) ms \[16U2\] | same, + U(0, 1) ms per flush |
 //! | host → Mega USB: frame | every 1 ms, phase U(0, 1) ms \[A: full-speed USB frames\] | same |
 //! | lidar → host USB (CP2102) | flush every 1 ms, then U(0, 1) ms: 0–2 ms after landing \[X4UM: 1–2 ms; A\] | U(0, 4) ms \[budget: 5 ms\] |
@@ -172,7 +172,7 @@ impl WorldTruth {
             part_seats: [PartSeat::default(); 4],
             footprint_length_m: config.robot.footprint_length_m,
             footprint_width_m: config.robot.footprint_width_m,
-            body_offset_m: [0.0; 2],
+            body_offset_m: [config.robot.body_center_x_m, config.robot.body_center_y_m],
             mega_usb: UsbTiming::IMMEDIATE,
             host_usb: UsbTiming::IMMEDIATE,
             lidar_usb: UsbTiming::IMMEDIATE,
@@ -236,8 +236,9 @@ impl WorldTruth {
             config.robot.footprint_length_m + outline.uniform_in(-k.body_size_m, k.body_size_m);
         let footprint_width_m =
             config.robot.footprint_width_m + outline.uniform_in(-k.body_size_m, k.body_size_m);
-        let body_offset_m =
-            std::array::from_fn(|_| outline.uniform_in(-k.body_offset_m, k.body_offset_m));
+        let believed_center_m = [config.robot.body_center_x_m, config.robot.body_center_y_m];
+        let body_offset_m = believed_center_m
+            .map(|believed| believed + outline.uniform_in(-k.body_offset_m, k.body_offset_m));
         let usb = |name: &str, t: UsbSpread| {
             let phase = stream(name).uniform_in(0.0, t.period_us);
             UsbTiming {
@@ -732,5 +733,17 @@ mod tests {
         let moved = field.beacons()[2].circle.center;
         let believed = beliefs.field.beacons_m[2];
         assert!((moved.x - believed[0] - truth.beacon_errors_m[2][0]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_body_centre_is_drawn_around_the_one_the_team_measured() {
+        let mut beliefs = config(WorldProfile::Realistic, 4);
+        beliefs.robot.body_center_x_m = 0.02;
+        beliefs.robot.body_center_y_m = -0.01;
+        let truth = WorldTruth::draw(&beliefs, 0.0);
+        assert!((truth.body_offset_m[0] - 0.02).abs() <= 0.005, "{truth:?}");
+        assert!((truth.body_offset_m[1] + 0.01).abs() <= 0.005, "{truth:?}");
+        let ideal = WorldTruth::draw(&config(WorldProfile::Ideal, 4), 0.0);
+        assert_eq!(ideal.body_offset_m, [0.0; 2]);
     }
 }

@@ -35,6 +35,7 @@ const KEYS: &[(&str, &str, Kind, f64)] = &[
     ("robot", "wheel_diameter_m", Kind::Float, 0.06),
     ("robot", "ticks_per_wheel_rev", Kind::Float, 2803.2),
     ("robot", "footprint_length_m", Kind::Float, 0.3),
+    ("robot", "body_center_x_m", Kind::Float, 0.0),
     ("robot", "lidar_height_m", Kind::Float, 0.2),
     ("motor", "time_constant_s", Kind::Float, 0.1),
     ("motor", "battery_voltage_v", Kind::Float, 11.1),

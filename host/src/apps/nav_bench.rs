@@ -237,11 +237,7 @@ pub fn route_for(config: &Config, preset: Preset, trip: Trip) -> Result<Route, N
                 .chain((1..4).filter_map(|i| field.incoming_slot(i)))
                 .map(|s| s.box_rect())
                 .collect();
-            let footprint = Footprint {
-                length_m: config.robot.footprint_length_m,
-                width_m: config.robot.footprint_width_m,
-                carrying: false,
-            };
+            let footprint = Footprint::of_robot(&config.robot, false);
             let space = FreeSpace::new(
                 &field,
                 &parts,
@@ -502,11 +498,7 @@ mod tests {
     use ratf_core::field::Vec2;
 
     fn bare_space(config: &Config, parts: &[Rect]) -> FreeSpace {
-        let footprint = Footprint {
-            length_m: config.robot.footprint_length_m,
-            width_m: config.robot.footprint_width_m,
-            carrying: false,
-        };
+        let footprint = Footprint::of_robot(&config.robot, false);
         FreeSpace::new(
             &Field::competition(),
             parts,

@@ -1090,6 +1090,31 @@ mod tests {
         assert_eq!((report.points, report.timeouts), (6, 0), "{report:?}");
     }
 
+    /// A body that stands 2 cm ahead of its wheels (its magnet too): a robot that believes
+    /// the centred square carries its parts along the warehouses' rows with their far faces
+    /// 2 cm nearer the dividers' tips than the 17.5 mm it plans (`planning::our_map`): 13
+    /// contacts and a drive timed out at `[sim] seed` 5. The same robot with its outline
+    /// measured centres its own faces there and touches nothing.
+    #[test]
+    fn a_robot_that_measured_its_outline_scores_without_touching_where_its_guess_collides() {
+        let mut world = Config::default();
+        world.sim.world = WorldProfile::Realistic;
+        world.sim.seed = 5;
+        world.robot.body_center_x_m = 0.02;
+        let (measured, refused) = calibrate::beliefs(&world, true).unwrap();
+        assert!(refused.is_none(), "{refused:?}");
+        assert!((measured.robot.body_center_x_m - 0.02).abs() < 0.008);
+        let mut unmeasured = measured.clone();
+        unmeasured.robot.body_center_x_m = 0.0;
+        unmeasured.robot.body_center_y_m = 0.0;
+        let options = RoundOptions::new(1, 5, Policy::Ours);
+        let run = |beliefs: &Config| run_in_world(&world, beliefs, &options, &mut [], |_| {});
+        let knows = run(&measured).unwrap();
+        assert_eq!((knows.points, knows.collisions), (4, 0), "{knows:?}");
+        let guesses = run(&unmeasured).unwrap();
+        assert!(guesses.collisions > 0, "{guesses:?}");
+    }
+
     #[test]
     fn the_same_seed_gives_the_same_round() {
         assert_eq!(round(2, Policy::Ours), round(2, Policy::Ours));

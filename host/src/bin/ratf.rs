@@ -418,7 +418,8 @@ struct RoundsBenchArgs {
     #[arg(long, default_value_t = 0.0)]
     machine_delay_s: f64,
     /// Calibrate each seed's world first (the calibration drive with tape measures, then
-    /// the odometry drive) and run both policies with the calibrated configuration.
+    /// the odometry drive, and the body's outline measured with a rule) and run both
+    /// policies with the calibrated configuration.
     #[arg(long)]
     calibrated: bool,
 }
@@ -443,7 +444,8 @@ struct LocBenchArgs {
     #[arg(long, default_value_t = 1)]
     first_seed: u64,
     /// Calibrate each seed's world first (the calibration drive with tape measures, then
-    /// the odometry drive) and run both estimators with the calibrated configuration.
+    /// the odometry drive, and the body's outline measured with a rule) and run both
+    /// estimators with the calibrated configuration.
     #[arg(long)]
     calibrated: bool,
 }
@@ -526,8 +528,9 @@ struct SimArgs {
     #[arg(long, value_enum)]
     world: Option<WorldProfile>,
     /// Calibrate first, as a team does on the day (`ratf calibrate`'s drive with tape
-    /// measures, then `ratf calibrate odometry`'s drive, in this seed's world), and run the round with the calibrated beliefs. The
-    /// world is drawn around `--config`: give the file as written, not a calibrated one
+    /// measures, then `ratf calibrate odometry`'s drive, in this seed's world, and the
+    /// body's outline measured with a rule), and run the round with the calibrated beliefs.
+    /// The world is drawn around `--config`: give the file as written, not a calibrated one
     /// (that would draw a new hall around the calibration).
     #[arg(long, conflicts_with = "serve_pty")]
     calibrated: bool,
@@ -1311,7 +1314,7 @@ fn sim_round(
             ),
             None => println!(
                 "calibrated: the robot believes the calibration drive's fit (lidar and beacons), \
-                 then the odometry drive's (wheels)"
+                 then the odometry drive's (wheels), and its outline as a rule measured it"
             ),
         }
         beliefs

@@ -3,6 +3,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::check::Checker;
+use crate::field::Field;
+#[cfg(doc)]
+use crate::field::PICK_STANDOFF_M;
+use crate::field::stations;
 
 /// The robot's geometry and sensor mounts. Defaults: the 5dpo competition robot.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -27,6 +31,15 @@ pub struct RobotConfig {
     pub footprint_length_m: f64,
     /// Body width along the robot's y (left), m. 0.30 (paper §III).
     pub footprint_width_m: f64,
+    /// Where the body's centre stands ahead of the robot frame's origin (the wheels' centre),
+    /// m. 0: the 5dpo robot as far as known (its outline is not documented). A team measures
+    /// its own with a rule, from the axles to the front and back faces (README: Fit your
+    /// robot): the robot's pick and drop poses stand its magnet on the plate from the front
+    /// face ([`Self::pick_standoff_m`]), and its routes keep the faces off the walls.
+    pub body_center_x_m: f64,
+    /// Where the body's centre stands to the left of the wheels' centre, m. 0: as
+    /// [`Self::body_center_x_m`].
+    pub body_center_y_m: f64,
     /// Per wheel (motor index 0 back-right, 1 back-left, 2 front-right, 3 front-left): the
     /// sign of the wheel speed on the wire that rolls that wheel forward (+x).
     /// [+1, −1, +1, −1]: derived from the original's `inv = true` and its kinematics
@@ -61,6 +74,9 @@ pub struct RobotConfig {
     /// The IMU.
     pub imu: ImuConfig,
 }
+
+/// Largest distance of the body's centre from the wheels' centre, per axis, m.
+const MAX_BODY_CENTER_M: f64 = 0.05;
 
 /// A face of the robot's square body that can carry a magnet.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -99,6 +115,26 @@ impl std::fmt::Display for MagnetFace {
     }
 }
 
+impl RobotConfig {
+    /// From the wheels' centre to the body's front face, m.
+    pub fn front_face_m(&self) -> f64 {
+        self.footprint_length_m / 2.0 + self.body_center_x_m
+    }
+
+    /// From the wheels' centre to the magnet's face, which is where a part's plate stands at
+    /// a pick or drop, m: 15 mm beyond the front face ([`stations::pick_standoff_m`];
+    /// [`PICK_STANDOFF_M`] on the default 30 cm centred body).
+    pub fn pick_standoff_m(&self) -> f64 {
+        stations::pick_standoff_m(self.front_face_m())
+    }
+
+    /// The competition floor as this robot docks on it: each slot's pick and drop pose
+    /// [`Self::pick_standoff_m`] from its plate.
+    pub fn field(&self) -> Field {
+        Field::competition().with_pick_standoff(self.pick_standoff_m())
+    }
+}
+
 impl Default for RobotConfig {
     fn default() -> Self {
         Self {
@@ -108,6 +144,8 @@ impl Default for RobotConfig {
             strafe_factor: 1.0,
             footprint_length_m: 0.30,
             footprint_width_m: 0.30,
+            body_center_x_m: 0.0,
+            body_center_y_m: 0.0,
             wheel_forward_sign: [1, -1, 1, -1],
             max_wheel_speed_rad_s: 24.3,
             ticks_per_wheel_rev: 2803.2,
@@ -254,6 +292,24 @@ impl RobotConfig {
             "m",
             FOOTPRINT,
         );
+        const CENTRE: &str = "the wheels' centre stands within 5 cm of the body's centre \
+                              (measured from the axles to the faces)";
+        c.within(
+            "body_center_x_m",
+            self.body_center_x_m,
+            -MAX_BODY_CENTER_M,
+            MAX_BODY_CENTER_M,
+            "m",
+            CENTRE,
+        );
+        c.within(
+            "body_center_y_m",
+            self.body_center_y_m,
+            -MAX_BODY_CENTER_M,
+            MAX_BODY_CENTER_M,
+            "m",
+            CENTRE,
+        );
         for (i, s) in self.wheel_forward_sign.iter().enumerate() {
             c.require(&format!("wheel_forward_sign[{i}]"), s, s.abs() == 1, || {
                 "must be +1 or -1 (the sign of the wire speed that rolls that wheel forward)"
@@ -308,23 +364,33 @@ impl RobotConfig {
                 0.20
             }
         };
+        let centre = |m: f64| {
+            if (-MAX_BODY_CENTER_M..=MAX_BODY_CENTER_M).contains(&m) {
+                m
+            } else {
+                0.0
+            }
+        };
         let half_length = half(self.footprint_length_m);
         let half_width = half(self.footprint_width_m);
+        let (x, y) = (centre(self.body_center_x_m), centre(self.body_center_y_m));
         c.within(
             "lidar_x_m",
             self.lidar_x_m,
-            -half_length,
-            half_length,
+            x - half_length,
+            x + half_length,
             "m",
-            "the lidar stands on the robot: within half of robot.footprint_length_m",
+            "the lidar stands on the robot: within half of robot.footprint_length_m of the \
+             body's centre (robot.body_center_x_m)",
         );
         c.within(
             "lidar_y_m",
             self.lidar_y_m,
-            -half_width,
-            half_width,
+            y - half_width,
+            y + half_width,
             "m",
-            "the lidar stands on the robot: within half of robot.footprint_width_m",
+            "the lidar stands on the robot: within half of robot.footprint_width_m of the \
+             body's centre (robot.body_center_y_m)",
         );
         c.within(
             "lidar_yaw_deg",

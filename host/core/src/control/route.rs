@@ -623,11 +623,7 @@ mod tests {
     /// The free space of a 30 × 30 cm body, `carrying` a part or not, with the default
     /// shortcut margin.
     fn square_body_space(field: &Field, carrying: bool) -> FreeSpace {
-        let footprint = Footprint {
-            length_m: 0.30,
-            width_m: 0.30,
-            carrying,
-        };
+        let footprint = Footprint::centred(0.30, 0.30, carrying);
         FreeSpace::new(
             field,
             &[],
@@ -642,11 +638,7 @@ mod tests {
         let map = RoadMap::new(WaypointGraph::original());
         let config = NavigationConfig::default();
         let start = field.start_pose();
-        let footprint = Footprint {
-            length_m: 0.30,
-            width_m: 0.30,
-            carrying: false,
-        };
+        let footprint = Footprint::centred(0.30, 0.30, false);
         let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
         for slot in field.slots() {
             let route = plan_route(&field, &map, &space, start, slot, &config).unwrap();
@@ -708,7 +700,10 @@ mod tests {
     fn the_corner_into_the_outgoing_row_is_capped_where_an_overshoot_would_reach_a_divider() {
         let field = Field::competition();
         let config = NavigationConfig::default();
-        let map = RoadMap::new(crate::planning::our_map::our_graph(&field, 0.30));
+        let map = RoadMap::new(crate::planning::our_map::our_graph(
+            &field,
+            &Footprint::centred(0.30, 0.30, true),
+        ));
         let space = square_body_space(&field, true);
         let (from, to) = (
             field.incoming_slot(1).unwrap(),
@@ -745,11 +740,7 @@ mod tests {
         let config = NavigationConfig::default();
         let mut checked = 0;
         for carrying in [false, true] {
-            let footprint = Footprint {
-                length_m: 0.30,
-                width_m: 0.30,
-                carrying,
-            };
+            let footprint = Footprint::centred(0.30, 0.30, carrying);
             let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
             // Carrying, the robot comes from a pick slot and goes to a drop slot; empty,
             // the other way round.

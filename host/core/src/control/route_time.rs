@@ -12,7 +12,6 @@
 use crate::config::{Config, NavigationConfig};
 use crate::control::profile::{HeadingPlan, Profile, WheelBudget};
 use crate::control::route::{Route, plan_leg};
-use crate::field::Field;
 use crate::planning::graph::RoadMap;
 use crate::planning::our_map::our_graph;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
@@ -82,17 +81,13 @@ pub struct RouteTimes {
 impl RouteTimes {
     /// The times for the robot of `config` on the competition field.
     pub fn new(config: &Config) -> Self {
-        let field = Field::competition();
-        let map = RoadMap::new(our_graph(&field, config.robot.footprint_length_m));
+        let field = config.robot.field();
+        let map = RoadMap::new(our_graph(&field, &Footprint::of_robot(&config.robot, true)));
         let space = |carrying: bool| {
             FreeSpace::new(
                 &field,
                 &[],
-                Footprint {
-                    length_m: config.robot.footprint_length_m,
-                    width_m: config.robot.footprint_width_m,
-                    carrying,
-                },
+                Footprint::of_robot(&config.robot, carrying),
                 config.navigation.shortcut_margin_m,
             )
         };
@@ -157,6 +152,7 @@ impl TravelTimes for RouteTimes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::Field;
     use crate::field::geometry::Vec2;
 
     fn straight(length_m: f64, turn_rad: f64) -> Route {

@@ -64,6 +64,26 @@ impl Field {
         }
     }
 
+    /// This floor for a robot whose magnet's face stands `standoff_m` ahead of its wheels'
+    /// centre: every slot's pick and drop pose that far from its plate
+    /// (`config::RobotConfig::pick_standoff_m`).
+    pub fn with_pick_standoff(mut self, standoff_m: f64) -> Self {
+        let machines = [&mut self.machine_a, &mut self.machine_b]
+            .into_iter()
+            .flat_map(|b| b.machines.iter_mut())
+            .flat_map(|m| [&mut m.input, &mut m.output]);
+        let slots = self
+            .incoming
+            .slots
+            .iter_mut()
+            .chain(self.outgoing.slots.iter_mut())
+            .chain(machines);
+        for slot in slots {
+            slot.pick_pose = slot.pose_at_standoff(standoff_m);
+        }
+        self
+    }
+
     /// The printed area, x ∈ [−0.841, 0.841], y ∈ [−0.5945, 0.5945] m. No perimeter wall.
     pub fn printed_area(&self) -> Rect {
         self.printed_area
@@ -271,6 +291,28 @@ mod tests {
         assert_eq!(
             f.slot_for_waypoint(WaypointId(57)).unwrap().kind,
             SlotKind::MachineOutput
+        );
+    }
+
+    #[test]
+    fn a_robot_with_its_own_standoff_gets_every_pick_pose_moved_along_its_normal() {
+        let nominal = Field::competition();
+        let own = Field::competition().with_pick_standoff(0.18);
+        assert_eq!(own.slots().count(), 16);
+        for (a, b) in nominal.slots().zip(own.slots()) {
+            let moved = b.pick_pose.position() - a.pick_pose.position();
+            let normal = Vec2::from_angle(a.face_normal_rad);
+            assert!(
+                (moved - normal * (0.18 - PICK_STANDOFF_M)).norm() < 1e-12,
+                "{b:?}"
+            );
+            assert_eq!(a.pick_pose.yaw_rad, b.pick_pose.yaw_rad);
+            assert_eq!(a.box_center, b.box_center);
+        }
+        // The default standoff leaves the floor as it was, to the bit.
+        assert_eq!(
+            Field::competition().with_pick_standoff(PICK_STANDOFF_M),
+            nominal
         );
     }
 

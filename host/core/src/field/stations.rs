@@ -24,14 +24,28 @@ pub const PART_HEIGHT_M: f64 = 0.065;
 /// Metal plate on the part's front face, width × height, m: 80 × 20 mm (§1.7).
 pub const PART_PLATE_SIZE_M: (f64, f64) = (0.080, 0.020);
 
-/// Distance from a slot's plate face to the robot centre at the pick/drop pose, m.
+/// Distance from a slot's plate face to the robot centre at the pick/drop pose of the
+/// default robot, m.
 ///
-/// 0.165 = 0.150 (half of the 0.30 m footprint, `robot.footprint_length_m`) + 0.010 (the
-/// dividers stick out 70 mm, 10 mm beyond a 60 mm deep box, so a flat-fronted robot stops
-/// at the divider tips) + 0.005 clearance. Assumption: the magnet/switch reaches the plate
-/// across those 15 mm. The original stopped 127–177 mm from the plate (original-system.md
-/// §6.1), so its robot centre was not at its geometric centre or it stopped short.
+/// 0.165 = 0.150 (its front face, [`DEFAULT_FRONT_FACE_M`]) + 0.010 (the dividers stick
+/// out 70 mm, 10 mm beyond a 60 mm deep box, so a flat-fronted robot stops at the divider
+/// tips) + 0.005 clearance. Assumption: the magnet/switch reaches the plate across those
+/// 15 mm, standing that far proud of the front face. A robot whose outline differs docks at
+/// its own ([`pick_standoff_m`]). The original stopped 127–177 mm from the plate
+/// (original-system.md §6.1), so its robot centre was not at its geometric centre or it
+/// stopped short.
 pub const PICK_STANDOFF_M: f64 = 0.165;
+
+/// The default robot's front face ahead of its wheels' centre, m: half of its centred
+/// 0.30 m body (`robot.footprint_length_m`).
+pub const DEFAULT_FRONT_FACE_M: f64 = 0.150;
+
+/// The pick standoff of a robot whose front face stands `front_face_m` ahead of its
+/// wheels' centre, m: its magnet's face as far proud of that face as the default robot's
+/// (15 mm), so [`PICK_STANDOFF_M`] to the bit on the default body.
+pub fn pick_standoff_m(front_face_m: f64) -> f64 {
+    PICK_STANDOFF_M + (front_face_m - DEFAULT_FRONT_FACE_M)
+}
 
 /// A part's type (competition.md §1.7).
 #[derive(

@@ -54,8 +54,11 @@
 use std::collections::VecDeque;
 
 use super::MissionConfig;
+use crate::config::RobotConfig;
+use crate::field::Field;
+#[cfg(doc)]
+use crate::field::PICK_STANDOFF_M;
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
-use crate::field::{Field, PART_DEPTH_M, PICK_STANDOFF_M};
 use crate::kinematics::BodyTwist;
 use crate::planning::shortcuts::{Footprint, FreeSpace};
 
@@ -67,21 +70,16 @@ pub const MAX_LOOKS: usize = 8;
 /// backed off from a pick pose starts where it was meant to.
 pub const LOOK_CLEARANCE_M: f64 = 0.003;
 
-/// Where a search's looks may start: clear of `field`'s walls, dividers and poles, for a bare
-/// body of `length_m` × `width_m` (the magnet is off while looking) grown by
-/// [`LOOK_CLEARANCE_M`].
-pub fn search_floor(field: &Field, length_m: f64, width_m: f64) -> FreeSpace {
-    let body = Footprint {
-        length_m,
-        width_m,
-        carrying: false,
-    };
-    FreeSpace::new(field, &[], body, LOOK_CLEARANCE_M)
+/// Where a search's looks may start: clear of `field`'s walls, dividers and poles, for the
+/// bare body of `robot` (the magnet is off while looking) grown by [`LOOK_CLEARANCE_M`].
+pub fn search_floor(field: &Field, robot: &RobotConfig) -> FreeSpace {
+    FreeSpace::new(
+        field,
+        &[],
+        Footprint::of_robot(robot, false),
+        LOOK_CLEARANCE_M,
+    )
 }
-
-/// From the robot's centre to the centre of a part the magnet holds, m (the part stands
-/// against the magnet's face, which is where it is at a slot's pick pose).
-const PART_AHEAD_M: f64 = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
 
 /// How long the trail of carried poses reaches back, s: 1.0, the Mega's 0.5 s reset, the
 /// 0.1 s debounce after it, its coast to a stop, and a margin.
@@ -276,7 +274,8 @@ impl Search {
             };
             add(backoff(anchor, side * sweep));
             add(backoff(anchor, -side * sweep));
-            let part = |p: Pose2| p.transform_point(Vec2::new(PART_AHEAD_M, 0.0));
+            let part_ahead_m = floor.footprint().part_ahead_m();
+            let part = |p: Pose2| p.transform_point(Vec2::new(part_ahead_m, 0.0));
             let mut last = part(anchor);
             for &(_, earlier) in trail.poses.iter().rev() {
                 if part(earlier).distance(last) >= sweep {
@@ -596,7 +595,7 @@ mod tests {
 
     /// The competition floor for a 30 × 30 cm body.
     fn floor() -> FreeSpace {
-        search_floor(&Field::competition(), 0.30, 0.30)
+        search_floor(&Field::competition(), &RobotConfig::default())
     }
 
     /// Where [`straight_trail`] begins, heading up the field's left side: the trail, its

@@ -11,8 +11,10 @@
 //! * at any heading: the disc swept by the footprint turning on the spot (the circle of its
 //!   farthest corner), for the stretches where the follower may rotate.
 
+use crate::config::RobotConfig;
 use crate::field::geometry::{Circle, Pose2, Rect, Vec2, hypot};
-use crate::field::{Field, OrientedRect, PART_DEPTH_M, PART_WIDTH_M, PICK_STANDOFF_M};
+use crate::field::stations::pick_standoff_m;
+use crate::field::{Field, OrientedRect, PART_DEPTH_M, PART_WIDTH_M};
 
 /// Sampling step along a segment for the fixed-heading check, m. 0.005: a quarter of the
 /// thinnest obstacle (the 20 mm dividers), so no obstacle fits between two samples.
@@ -29,22 +31,52 @@ pub struct Footprint {
     pub length_m: f64,
     /// Body width along the robot's y, m.
     pub width_m: f64,
-    /// A part is held in front: its centre [`PICK_STANDOFF_M`] + [`PART_DEPTH_M`]/2 ahead of
-    /// the robot centre (where the magnet holds it at the pick pose).
+    /// The body's centre in the robot frame (x ahead, y left of the wheels' centre), m.
+    pub center_m: Vec2,
+    /// From the robot centre to the magnet's face, m: where a carried part's plate stands
+    /// (the pick standoff, `config::RobotConfig::pick_standoff_m`).
+    pub magnet_m: f64,
+    /// A part is held in front: its centre `magnet_m` + [`PART_DEPTH_M`]/2 ahead of the
+    /// robot centre (where the magnet holds it at the pick pose).
     pub carrying: bool,
 }
 
 impl Footprint {
+    /// The outline `robot` believes it has (its measured body and magnet), carrying a part
+    /// or not.
+    pub fn of_robot(robot: &RobotConfig, carrying: bool) -> Self {
+        Self {
+            length_m: robot.footprint_length_m,
+            width_m: robot.footprint_width_m,
+            center_m: Vec2::new(robot.body_center_x_m, robot.body_center_y_m),
+            magnet_m: robot.pick_standoff_m(),
+            carrying,
+        }
+    }
+
+    /// A body `length_m` × `width_m` centred on the wheels, its magnet 15 mm proud of its
+    /// front face ([`pick_standoff_m`]; the default robot's outline at 0.30 × 0.30 m).
+    pub fn centred(length_m: f64, width_m: f64, carrying: bool) -> Self {
+        Self {
+            length_m,
+            width_m,
+            center_m: Vec2::ZERO,
+            magnet_m: pick_standoff_m(length_m / 2.0),
+            carrying,
+        }
+    }
+
     /// The rectangles it covers at `pose`: the body, then the part if carried.
     pub fn rects_at(&self, pose: Pose2, margin_m: f64) -> Vec<OrientedRect> {
         let grow = 2.0 * margin_m;
+        let body = pose.compose(Pose2::new(self.center_m.x, self.center_m.y, 0.0));
         let mut rects = vec![OrientedRect::new(
-            pose,
+            body,
             self.length_m + grow,
             self.width_m + grow,
         )];
         if self.carrying {
-            let part = pose.compose(Pose2::new(PICK_STANDOFF_M + PART_DEPTH_M / 2.0, 0.0, 0.0));
+            let part = pose.compose(Pose2::new(self.part_ahead_m(), 0.0, 0.0));
             rects.push(OrientedRect::new(
                 part,
                 PART_DEPTH_M + grow,
@@ -54,13 +86,31 @@ impl Footprint {
         rects
     }
 
-    /// Radius of the disc it sweeps turning on the spot, m: the body's half-diagonal
-    /// (√(0.15² + 0.15²) = 0.212 m for 30 × 30 cm), or the carried part's far corner
-    /// (√(0.225² + 0.045²) = 0.229 m) if larger.
+    /// From the robot centre to the centre of a part the magnet holds, m.
+    pub fn part_ahead_m(&self) -> f64 {
+        self.magnet_m + PART_DEPTH_M / 2.0
+    }
+
+    /// From the robot centre to the far face of a part the magnet holds, m.
+    pub fn part_reach_m(&self) -> f64 {
+        self.magnet_m + PART_DEPTH_M
+    }
+
+    /// From the robot centre to the body's back face, m (a distance behind it).
+    pub fn back_m(&self) -> f64 {
+        self.length_m / 2.0 - self.center_m.x
+    }
+
+    /// Radius of the disc it sweeps turning on the spot, m: the body's farthest corner
+    /// (√(0.15² + 0.15²) = 0.212 m for a centred 30 × 30 cm), or the carried part's far
+    /// corner (√(0.225² + 0.045²) = 0.229 m) if larger.
     pub fn sweep_radius_m(&self) -> f64 {
-        let body = hypot(self.length_m / 2.0, self.width_m / 2.0);
+        let body = hypot(
+            self.center_m.x.abs() + self.length_m / 2.0,
+            self.center_m.y.abs() + self.width_m / 2.0,
+        );
         if self.carrying {
-            body.max(hypot(PICK_STANDOFF_M + PART_DEPTH_M, PART_WIDTH_M / 2.0))
+            body.max(hypot(self.part_reach_m(), PART_WIDTH_M / 2.0))
         } else {
             body
         }
@@ -183,6 +233,11 @@ impl FreeSpace {
         self.segment_is_free_with_margin(a, b, yaws_rad, self.margin_m)
     }
 
+    /// The outline it keeps free.
+    pub fn footprint(&self) -> Footprint {
+        self.footprint
+    }
+
     /// The margin around the footprint, m.
     pub fn margin_m(&self) -> f64 {
         self.margin_m
@@ -230,12 +285,15 @@ impl FreeSpace {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::PICK_STANDOFF_M;
     use proptest::prelude::*;
     use std::f64::consts::FRAC_PI_2;
 
     const BARE: Footprint = Footprint {
         length_m: 0.30,
         width_m: 0.30,
+        center_m: Vec2::ZERO,
+        magnet_m: PICK_STANDOFF_M,
         carrying: false,
     };
 
@@ -252,6 +310,34 @@ mod tests {
         };
         assert!((carrying.sweep_radius_m() - 0.2294).abs() < 1e-4);
         assert_eq!(carrying.rects_at(Pose2::default(), 0.0).len(), 2);
+    }
+
+    #[test]
+    fn a_body_off_the_wheels_centre_covers_its_own_outline_and_holds_the_part_off_its_front() {
+        let robot = RobotConfig {
+            body_center_x_m: 0.012,
+            body_center_y_m: -0.008,
+            ..RobotConfig::default()
+        };
+        let footprint = Footprint::of_robot(&robot, true);
+        // Facing +y at (1, 2): the body's centre 12 mm ahead (+y) and 8 mm right (+x).
+        let pose = Pose2::new(1.0, 2.0, FRAC_PI_2);
+        let rects = footprint.rects_at(pose, 0.0);
+        let body = rects[0].pose.position();
+        assert!(body.distance(Vec2::new(1.008, 2.012)) < 1e-12, "{body:?}");
+        // The magnet 15 mm proud of the front face, 0.162 m ahead: the part's centre 30 mm on.
+        assert!((footprint.magnet_m - 0.177).abs() < 1e-12);
+        let part = rects[1].pose.position();
+        assert!(part.distance(Vec2::new(1.0, 2.207)) < 1e-12, "{part:?}");
+        assert!((footprint.back_m() - 0.138).abs() < 1e-12);
+        // The farthest body corner: 0.162 ahead, 0.158 to the side.
+        assert!(
+            (footprint.sweep_radius_m() - 0.162f64.hypot(0.158).max(0.237f64.hypot(0.045))).abs()
+                < 1e-12
+        );
+        // The default robot is the centred 30 cm square.
+        let default = Footprint::of_robot(&RobotConfig::default(), true);
+        assert_eq!(default, Footprint::centred(0.30, 0.30, true));
     }
 
     #[test]

@@ -12,10 +12,12 @@ use serde::Serialize;
 pub mod drive;
 pub mod odometry;
 pub mod odometry_cli;
+pub mod outline;
 pub mod robot;
 
 use crate::apps::scripts::calibration_drive;
 use drive::drive_and_collect;
+use outline::Outline;
 use ratf_core::calibration::{
     self, Calibration, CalibrationError, PoleFromSheet, Priors, TapeMeasure,
 };
@@ -207,10 +209,22 @@ pub enum DayRefusal {
 /// the configuration after the team's day, as the README's "On the robot" has it: the
 /// calibration drive with all the day's measures (`ratf calibrate`), then the odometry
 /// drive (`ratf calibrate odometry`) by the robot that believes it, its fit checked as on
-/// the robot ([`odometry::Agreement::check`]). A refused fit leaves
-/// the robot with what it believed before that step, as on the day for a team with no time
-/// to drive again, and the refusal beside it.
+/// the robot ([`odometry::Agreement::check`]), and the body's outline measured with a rule
+/// ([`outline`]). A refused fit leaves the robot with what it believed before that step, as
+/// on the day for a team with no time to drive again, and the refusal beside it.
 pub fn beliefs(
+    config: &Config,
+    calibrate: bool,
+) -> Result<(Config, Option<DayRefusal>), CalibrateError> {
+    let (mut beliefs, refused) = drive_beliefs(config, calibrate)?;
+    if calibrate {
+        Outline::measured_in_sim(config).apply(&mut beliefs);
+    }
+    Ok((beliefs, refused))
+}
+
+/// [`beliefs`] from the two drives, before the outline's rule measures.
+fn drive_beliefs(
     config: &Config,
     calibrate: bool,
 ) -> Result<(Config, Option<DayRefusal>), CalibrateError> {
