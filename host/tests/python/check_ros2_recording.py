@@ -128,11 +128,20 @@ def main(path):
         for p in scan["points"]:
             points += 1
             turned = (direction * (p["angle_rad"] - message.angle_min)) % (2.0 * math.pi)
-            k = round(turned / step) % rays
+            want = f32((p["range_m"] - lidar["range_offset_m"]) / lidar["range_scale"])
+            x = turned / step
+            # The writer places a point by its f64 angles; a reader has the message's f32
+            # angle_min and increment, which move `x` by up to ~1e-4 ray: a point that far
+            # from halfway between two rays may stand in either.
+            if abs(x - math.floor(x) - 0.5) < 1e-3:
+                near = [math.floor(x) % rays, math.ceil(x) % rays]
+                near.sort(key=lambda r: (r in taken, message.ranges[r] != want))
+                k = near[0]
+            else:
+                k = round(x) % rays
             if k in taken:
                 continue
             taken.add(k)
-            want = f32((p["range_m"] - lidar["range_offset_m"]) / lidar["range_scale"])
             if message.ranges[k] != want:
                 mismatches += 1
             placed += 1
