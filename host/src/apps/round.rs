@@ -1115,6 +1115,23 @@ mod tests {
         assert!(guesses.collisions > 0, "{guesses:?}");
     }
 
+    /// A regression pin in the realistic world, calibrated: in round 1 of seed 23 the robot
+    /// turned into outgoing slot 4 still running along the row at 0.17 m/s in truth (its
+    /// last command 0.075 m/s), ran 12 mm past the slot's line, and the carried part touched
+    /// the slot's divider. The slot-entry gate now also weighs where the commands in flight
+    /// take the robot (`control::follower`).
+    #[test]
+    fn a_carried_part_enters_its_slot_clear_of_the_dividers_after_a_fast_row() {
+        let mut world = Config::default();
+        world.sim.world = WorldProfile::Realistic;
+        world.sim.seed = 23;
+        let (calibrated, refused) = calibrate::beliefs(&world, true).unwrap();
+        assert!(refused.is_none(), "{refused:?}");
+        let options = RoundOptions::new(1, 23, Policy::Ours);
+        let report = run_in_world(&world, &calibrated, &options, &mut [], |_| {}).unwrap();
+        assert_eq!((report.points, report.collisions), (4, 0), "{report:?}");
+    }
+
     #[test]
     fn the_same_seed_gives_the_same_round() {
         assert_eq!(round(2, Policy::Ours), round(2, Policy::Ours));
