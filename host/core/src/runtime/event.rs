@@ -111,8 +111,9 @@ pub enum Event {
         /// Why.
         reason: String,
     },
-    /// A device that had spoken fell silent: the robot holds still, magnet off, until it
-    /// speaks again ([`super::SilenceGuard`]).
+    /// A device that had spoken fell silent: the robot holds still until it speaks again,
+    /// the magnet off (a lidar that still streams keeps a held part for a while,
+    /// [`super::BLIND_MAGNET_HOLD_US`]; [`super::SilenceGuard`]).
     DeviceSilent {
         /// Which device.
         device: DeviceKind,
@@ -275,10 +276,19 @@ impl Event {
             Self::GyroBiasRefused { reason } => {
                 format!("no start-up gyro bias ({reason}); the localiser learns it")
             }
-            Self::DeviceSilent { device, silent_ms } => format!(
-                "{device} silent for {silent_ms} ms: holding still, magnet off, until it \
-                 speaks again (check its cable and power if this lasts)"
-            ),
+            Self::DeviceSilent { device, silent_ms } => {
+                let magnet = match device {
+                    DeviceKind::Lidar => format!(
+                        "a part on the magnet held for up to {} s",
+                        super::BLIND_MAGNET_HOLD_US / 1_000_000
+                    ),
+                    _ => "magnet off".to_owned(),
+                };
+                format!(
+                    "{device} silent for {silent_ms} ms: holding still, {magnet}, until it \
+                     speaks again (check its cable and power if this lasts)"
+                )
+            }
             Self::DeviceBack { device } => format!("{device} speaks again: going on"),
             Self::DeviceFault {
                 device,

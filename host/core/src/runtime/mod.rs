@@ -30,6 +30,6 @@ pub use self::input::{DeviceKind, Input, MANUAL_DEADMAN_US, OperatorCommand, Sta
 pub use self::output::{LidarCommand, Outputs, WheelCommand};
 pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};
 pub use self::silence::{
-    Hold, LIDAR_PACKET_SILENCE_US, LIDAR_SILENCE_REVOLUTIONS, MAGNET_OFF_AFTER_US,
-    MEGA_SILENCE_PERIODS, PacketWatch, SilenceGuard,
+    BLIND_MAGNET_HOLD_US, Hold, LIDAR_PACKET_SILENCE_US, LIDAR_SILENCE_REVOLUTIONS,
+    MAGNET_OFF_AFTER_US, MEGA_SILENCE_PERIODS, PacketWatch, SilenceGuard,
 };

@@ -3,6 +3,11 @@
 //! [`MAGNET_OFF_AFTER_US`] later, until it speaks again. A revolution without a single
 //! point counts as silence: in a walled field the X4 always sees something, so an empty
 //! revolution is a blinded or failing lidar, and the robot would drive on odometry alone.
+//! A lidar that still streams but sees nothing (its port is there, its packets flow) holds
+//! the wheels alone: the robot stands still with its part on the magnet for up to
+//! [`BLIND_MAGNET_HOLD_US`], so a dropout costs the wait and nothing more (issue 17: with
+//! the magnet off, the part fell in front of the robot and was looked for and gripped
+//! again after the dropout, and that search ran into walls and parts).
 //!
 //! The devices report a port that vanished ([`super::Input::DeviceFault`] with
 //! `reconnecting`, which holds the robot the same way from that instant until the device
@@ -49,6 +54,15 @@ pub const LIDAR_PACKET_SILENCE_US: u64 = 50_000;
 /// 150 ms: a Mega's last batch + [`MEGA_SILENCE_PERIODS`] (60 ms) + 60 ms + one 20 ms host
 /// tick is 141 ms; an X4's last packet + [`LIDAR_PACKET_SILENCE_US`] + 60 ms + a tick, 131 ms.
 pub const MAGNET_OFF_AFTER_US: u64 = 60_000;
+
+/// How long a lidar that streams but sees nothing keeps the robot's part on the magnet while
+/// the wheels hold, µs: 10 s. A robot standing still with its part held is no danger, and
+/// the part needs no search afterwards; past this the lidar is likely broken rather than
+/// blinded, and the solenoid is not left on for good (its coil heats). An assumption, far
+/// beyond a person's shadow on the lidar or the fault bench's 0.5–3 s dropouts. A lidar
+/// whose stream stopped (a port lost, [`LIDAR_PACKET_SILENCE_US`]) lets the part go after
+/// [`MAGNET_OFF_AFTER_US`], as a Mega does: issue 17's 150 ms for a device gone for good.
+pub const BLIND_MAGNET_HOLD_US: u64 = 10_000_000;
 
 /// What the guard asks of the robot now.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -107,6 +121,21 @@ impl Watch {
             });
         }
         over_us
+    }
+
+    /// How long past its limit this device's silence lets the magnet hold, µs: a lidar that
+    /// streams but sees nothing, [`BLIND_MAGNET_HOLD_US`]; a lost port or a silent Mega,
+    /// [`MAGNET_OFF_AFTER_US`].
+    fn magnet_off_after_us(&self) -> u64 {
+        match (self.device, self.lost_us) {
+            (DeviceKind::Lidar, None) => BLIND_MAGNET_HOLD_US,
+            _ => MAGNET_OFF_AFTER_US,
+        }
+    }
+
+    /// Whether a silence `over_us` past the limit has the magnet off.
+    fn magnet_off(&self, over_us: Option<u64>) -> bool {
+        over_us.is_some_and(|us| us >= self.magnet_off_after_us())
     }
 }
 
@@ -175,10 +204,9 @@ impl SilenceGuard {
     pub fn check(&mut self, now_us: u64, events: &mut Vec<Event>) -> Hold {
         let lidar = self.lidar.check(now_us, events);
         let mega = self.mega.check(now_us, events);
-        let over_us = lidar.max(mega);
         Hold {
-            wheels: over_us.is_some(),
-            magnet: over_us.is_some_and(|us| us >= MAGNET_OFF_AFTER_US),
+            wheels: lidar.is_some() || mega.is_some(),
+            magnet: self.lidar.magnet_off(lidar) || self.mega.magnet_off(mega),
         }
     }
 }
@@ -253,5 +281,72 @@ mod tests {
             watch.fell_silent(Some(910_000), 960_001),
             "a second silence"
         );
+    }
+
+    fn scan_with_points() -> Input {
+        Input::Scan(crate::drivers::x4::scan::Scan {
+            stamp_us: 0.0,
+            sample_period_us: 200.0,
+            scan_frequency_hz: 7.0,
+            points: vec![crate::drivers::x4::scan::ScanPoint {
+                angle_rad: 0.0,
+                range_m: 1.0,
+                time_offset_us: 0.0,
+            }],
+            samples: 0,
+            points_out_of_range: 0,
+            points_overflowed: 0,
+            packets_dropped: 0,
+        })
+    }
+
+    /// A lidar that streams but sees nothing holds the wheels and keeps a held part on the
+    /// magnet for [`BLIND_MAGNET_HOLD_US`]; the same lidar's port lost lets the part go
+    /// [`MAGNET_OFF_AFTER_US`] after the loss. (Before, every hold let the part go after
+    /// 60 ms: a dropout dropped it.)
+    #[test]
+    fn a_blind_lidar_keeps_the_part_and_a_lost_one_lets_it_go() {
+        let config = Config::default();
+        let limit_us = (LIDAR_SILENCE_REVOLUTIONS * 1e6 / config.lidar.scan_rate_hz) as u64;
+        let mut events = Vec::new();
+        let mut guard = SilenceGuard::new(&config);
+        guard.heard(&scan_with_points(), 0);
+        let blind = |guard: &mut SilenceGuard, us: u64, events: &mut Vec<Event>| {
+            guard.check(limit_us + 1 + us, events)
+        };
+        assert_eq!(guard.check(limit_us, &mut events), Hold::default());
+        let held = blind(&mut guard, MAGNET_OFF_AFTER_US, &mut events);
+        assert!(held.wheels && !held.magnet, "{held:?}");
+        let held = blind(&mut guard, BLIND_MAGNET_HOLD_US - 1, &mut events);
+        assert!(held.wheels && !held.magnet, "{held:?}");
+        let held = blind(&mut guard, BLIND_MAGNET_HOLD_US, &mut events);
+        assert!(held.wheels && held.magnet, "{held:?}");
+        assert_eq!(
+            events,
+            [Event::DeviceSilent {
+                device: DeviceKind::Lidar,
+                silent_ms: limit_us / 1_000
+            }]
+        );
+
+        // Blind, then its port lost: the part goes 60 ms after the loss.
+        let mut guard = SilenceGuard::new(&config);
+        guard.heard(&scan_with_points(), 0);
+        let lost_at = limit_us + 100_000;
+        assert!(!guard.check(lost_at, &mut events).magnet);
+        assert!(guard.lost(DeviceKind::Lidar, lost_at));
+        assert!(
+            !guard
+                .check(lost_at + MAGNET_OFF_AFTER_US - 1, &mut events)
+                .magnet
+        );
+        assert!(
+            guard
+                .check(lost_at + MAGNET_OFF_AFTER_US, &mut events)
+                .magnet
+        );
+        // It streams and sees again: nothing held.
+        guard.heard(&scan_with_points(), lost_at + 200_000);
+        assert_eq!(guard.check(lost_at + 200_000, &mut events), Hold::default());
     }
 }
