@@ -355,6 +355,12 @@ impl std::fmt::Debug for RouteNavigator {
 }
 
 impl RouteNavigator {
+    /// The field this navigator drives on: ours docks where its own magnet meets the plate
+    /// ([`crate::config::RobotConfig::field`]), the original at its fixed poses.
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+
     /// A navigator for the robot in `config` driving with `preset`: ours (the route planner
     /// on our road map, `planning::our_map`, and `control::follower`) or the original's (its
     /// routes on its graph and `control::original`).

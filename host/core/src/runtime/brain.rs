@@ -266,13 +266,8 @@ impl Brain {
         };
         let actions = TaskActions::new(self.model.clone(), planner, state);
         let navigator = RouteNavigator::new(&self.config, policy);
-        let robot = &self.config.robot;
-        // Ours docks where its own magnet meets the plate; the original at its fixed poses.
-        let field = match policy {
-            Policy::Ours => robot.field(),
-            Policy::Original => Field::competition(),
-        };
-        let floor = search_floor(&field, robot);
+        let field = navigator.field();
+        let floor = search_floor(field, &self.config.robot);
         let slot_poses = field
             .slots()
             .map(|slot| (slot.waypoint, slot.pick_pose))
