@@ -119,13 +119,13 @@ const ENTRY_CROSS_STOP_M: f64 = 0.008;
 /// The velocities commanded over the last `navigation.lag_compensation_s` +
 /// [`ESTIMATE_AGE_S`], each with how long it was commanded: the robot has yet to drive them
 /// out (the wheels answer a command about 0.1 s late, see `lag_compensation_s`). Their sum
-/// added to the estimate is where a pure-delay model puts the robot once they have run out. The follower places itself by its last command alone
-/// (faster rounds, measured, see [`Follower`]'s update); this sum only tells it, at the
-/// entry into a slot, how far a braking robot still runs on past the corner. In round 1 of
-/// the realistic world's seed 23 (calibrated) the robot turned into outgoing slot 4 at
-/// 0.17 m/s in truth with its last command at 0.075 m/s, ran 12 mm past the slot's line
-/// and its part touched a divider; the commands in flight then summed to 16 mm along the
-/// row.
+/// added to the estimate is where a pure-delay model puts the robot once they have run
+/// out. The follower places itself by its last command alone (faster rounds, measured, see
+/// [`Follower`]'s update); this sum only tells it, at the entry into a slot, how far a
+/// braking robot still runs on past the corner. In round 1 of the realistic world's seed 23
+/// (calibrated) the robot turned into outgoing slot 4 at 0.17 m/s in truth with its last
+/// command at 0.075 m/s, ran 12 mm past the slot's line and its part touched a divider; the
+/// commands of its last 0.12 s then summed to 16 mm along the row.
 #[derive(Clone, Debug, Default, PartialEq)]
 struct InFlight {
     /// (duration s, world-frame velocity m/s), oldest first.
