@@ -21,7 +21,7 @@
 //! On a route that carries a part into a slot ([`Route::carries_part_in`]) the last
 //! segment's along-track speed also waits for the cross-track error, so the part goes in
 //! between the dividers on the slot's centre line: the error now, and the error where the
-//! commands still in flight take the robot ([`InFlight`]), since the wheels answer a
+//! commands still in flight take the robot (`InFlight`), since the wheels answer a
 //! command about 0.1 s late and run on past the corner into the slot meanwhile.
 
 use std::collections::VecDeque;
