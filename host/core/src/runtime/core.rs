@@ -657,23 +657,12 @@ mod tests {
     }
 
     fn scan(ms: u64, points: usize) -> Stamped {
-        let point = crate::drivers::x4::scan::ScanPoint {
-            angle_rad: 0.0,
-            range_m: 1.0,
-            time_offset_us: 0.0,
-        };
         at(
             ms,
-            Input::Scan(crate::drivers::x4::scan::Scan {
-                stamp_us: (ms * 1_000) as f64,
-                sample_period_us: 200.0,
-                scan_frequency_hz: 7.0,
-                points: vec![point; points],
-                samples: 0,
-                points_out_of_range: 0,
-                points_overflowed: 0,
-                packets_dropped: 0,
-            }),
+            Input::Scan(crate::drivers::x4::scan::Scan::points_at_one_metre(
+                (ms * 1_000) as f64,
+                points,
+            )),
         )
     }
 

@@ -284,20 +284,7 @@ mod tests {
     }
 
     fn scan_with_points() -> Input {
-        Input::Scan(crate::drivers::x4::scan::Scan {
-            stamp_us: 0.0,
-            sample_period_us: 200.0,
-            scan_frequency_hz: 7.0,
-            points: vec![crate::drivers::x4::scan::ScanPoint {
-                angle_rad: 0.0,
-                range_m: 1.0,
-                time_offset_us: 0.0,
-            }],
-            samples: 0,
-            points_out_of_range: 0,
-            points_overflowed: 0,
-            packets_dropped: 0,
-        })
+        Input::Scan(crate::drivers::x4::scan::Scan::points_at_one_metre(0.0, 1))
     }
 
     /// A lidar that streams but sees nothing holds the wheels and keeps a held part on the

@@ -105,6 +105,29 @@ pub struct Scan {
     pub packets_dropped: u32,
 }
 
+#[cfg(test)]
+impl Scan {
+    /// A revolution of `count` points straight ahead at 1 m, stamped `stamp_us` at 7 Hz: for
+    /// the runtime's tests, where only whether a revolution has points matters.
+    pub(crate) fn points_at_one_metre(stamp_us: f64, count: usize) -> Self {
+        let point = ScanPoint {
+            angle_rad: 0.0,
+            range_m: 1.0,
+            time_offset_us: 0.0,
+        };
+        Self {
+            stamp_us,
+            sample_period_us: 200.0,
+            scan_frequency_hz: 7.0,
+            points: vec![point; count],
+            samples: 0,
+            points_out_of_range: 0,
+            points_overflowed: 0,
+            packets_dropped: 0,
+        }
+    }
+}
+
 /// Timing of one packet: receive time of its last sample, minus its transmission time, and
 /// the index of that sample in the revolution.
 #[derive(Clone, Copy, Debug, Default)]
