@@ -3,8 +3,9 @@
 //! world in real time), the PWM steps through the robot's runtime as the operator's
 //! open-loop commands; then `--from-recording` on the recording that run made.
 //!
-//! Real time makes it sensitive to a busy machine: beside two busy cores one run in three fitted
-//! every dead zone 4.7–6.6 % high (the fit's RMSE 0.09 rad/s for 0.05), so `.ci/run` runs it alone.
+//! Real time makes it sensitive to a busy machine: beside two or three busy cores 3 runs of 12
+//! fitted every dead zone 4.7–6.6 % high (the fit's RMSE 0.09 rad/s for 0.05), so `.ci/run`
+//! runs it alone.
 
 mod common;
 
