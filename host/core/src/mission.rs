@@ -36,7 +36,10 @@
 //! switch then reads open with the robot at its drop pose, or up to
 //! [`LET_GO_SHORT_OF_DROP_M`] short of it, and the mission releases and backs out as after an
 //! arrival instead of searching for the part (it searched the slot's dividers and gave the
-//! placed part up). A part that slips off the magnet while the robot drives is looked for,
+//! placed part up). One that let the magnet go farther than the jam watch's reach from the
+//! drop has the robot let the part go and grip it again centred on its plate, as after a
+//! jam: it coasted on meanwhile, and the magnet, back on, took the part up wherever its face
+//! had slid to. A part that slips off the magnet while the robot drives is looked for,
 //! also near its drop: it lands ahead of the moving robot, turned and off to a side, and the
 //! robot pushes it on; only a part let go in place stands in its slot (round 2 at seed 4,
 //! part slip 3 cm short of machine B's input: taken for placed, it lay there unscored).
@@ -274,6 +277,9 @@ pub enum MissionEvent {
     /// The switch opened while carrying: the part fell off the magnet; the robot stops and
     /// looks for it where it was last held, to pick it up again.
     PartSlipped,
+    /// The core's hold let the carried part go away from its drop: the robot grips it again
+    /// centred on its plate before it carries on ([`Mission::hold`]).
+    LetGoInHold,
     /// The part that fell off is held again; the robot carries on to the drop.
     Regripped,
     /// The carried part stopped getting closer to its drop (`mission::jam`): the robot backs off,
@@ -505,6 +511,8 @@ pub struct Mission<N, A> {
     slot_poses: BTreeMap<WaypointId, Pose2>,
     /// Since when the core holds the robot ([`Mission::hold`]), µs.
     held_since_us: Option<u64>,
+    /// Whether the hold has had the magnet off.
+    hold_let_go: bool,
     /// Whether the carried part has stopped getting closer to its drop.
     jam: JamWatch,
     /// Times this action's part was let go and gripped again after a jam.
@@ -533,6 +541,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             floor,
             slot_poses,
             held_since_us: None,
+            hold_let_go: false,
             jam: JamWatch::default(),
             reseats: 0,
         }
@@ -586,10 +595,13 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// One host tick.
     pub fn tick(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> MissionOutput {
+        let mut events = Vec::new();
         if let Some(since_us) = self.held_since_us.take() {
             self.resume(now_us.saturating_sub(since_us), now_us);
+            if std::mem::take(&mut self.hold_let_go) {
+                self.grip_again_after_hold(now_us, pose, &mut events);
+            }
         }
-        let mut events = Vec::new();
         let twist = self.advance(now_us, pose, switch_pressed, &mut events);
         MissionOutput {
             twist,
@@ -600,9 +612,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// A host tick at `now_us` while the core holds the robot still (see the module
     /// documentation): the mission stands, its clock stopped, its magnet as it was (the
-    /// core's hold decides when the magnet lets go).
-    pub fn hold(&mut self, now_us: u64) {
+    /// core's hold decides when the magnet lets go; `magnet_let_go`: it has the magnet off
+    /// now).
+    pub fn hold(&mut self, now_us: u64, magnet_let_go: bool) {
         self.held_since_us.get_or_insert(now_us);
+        self.hold_let_go |= magnet_let_go;
     }
 
     /// True while the mission stands held ([`Self::hold`]) and has not ticked since.
@@ -643,6 +657,46 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             search.later(held_us);
         }
         self.navigator.halted();
+    }
+
+    /// After a hold that had the magnet off, with the robot carrying a part to its drop and
+    /// standing at `pose` farther than [`jam::WATCH_RADIUS_M`] from it (or a drop whose pose
+    /// it does not know): let the part go and grip it again centred, the way a jammed part
+    /// is ([`Search::reseat`], its looks anchored where the part was last held), ours only.
+    ///
+    /// The magnet lets go [`crate::runtime::MAGNET_OFF_AFTER_US`] after the wheels are told
+    /// to stop, while the robot still coasts, and the part stays where it was let go: a
+    /// robot moving sideways in its own frame (it mostly is while it turns) slides its face
+    /// along the plate, and the magnet, back on, took the part up there, up to the switch's
+    /// lateral reach off centre. Carried so into its slot, it met a divider (the fault
+    /// bench's lidar replug, tuning seeds 61–85: 13.5, 21.7 and 25 mm off, a collision at
+    /// the drop each). Near the drop the robot keeps on as before: a part let go there may
+    /// already stand between the slot's dividers, where the centring's strafes would push it
+    /// into them, and the jam watch catches a part that meets their tips.
+    fn grip_again_after_hold(&mut self, now_us: u64, pose: Pose2, events: &mut Vec<MissionEvent>) {
+        let State::ToDrop {
+            action,
+            returning: false,
+            ..
+        } = self.state
+        else {
+            return;
+        };
+        let near_drop = self
+            .slot_poses
+            .get(&action.drop)
+            .is_some_and(|drop| drop.position().distance(pose.position()) <= jam::WATCH_RADIUS_M);
+        if !self.config.watch_carried_part || near_drop {
+            return;
+        }
+        // The part stands square ahead of the last pose it was known held at, the trail's
+        // last (the mission did not tick in the hold), not of where the robot coasted to.
+        if let Some(search) = Search::reseat(&self.trail, pose, now_us, &self.config, &self.floor) {
+            events.push(MissionEvent::LetGoInHold);
+            self.solenoid_on = false;
+            self.search = Some(search);
+            self.state = State::Regripping { action };
+        }
     }
 
     /// Whether the part carried to `drop` is jammed short of it ([`jam`]), the robot at
@@ -1612,7 +1666,7 @@ mod tests {
                 let now = u64::from(k) * 20_000;
                 let carrying = matches!(m.state, State::ToDrop { .. });
                 if carrying && held && carry_ticks == 2 && held_ticks < 10 {
-                    m.hold(now);
+                    m.hold(now, true);
                     held_ticks += 1;
                     continue;
                 }
@@ -2409,7 +2463,7 @@ mod tests {
             }
             if held.as_ref().is_some_and(|h| h.contains(&k)) {
                 let magnet = m.solenoid_on();
-                m.hold(now);
+                m.hold(now, true);
                 assert!(m.is_held());
                 assert_eq!(m.solenoid_on(), magnet, "the mission keeps its magnet held");
                 continue;
@@ -2433,6 +2487,111 @@ mod tests {
         }
         let end = held.expect("the hold came").end;
         (m, events, end)
+    }
+
+    /// A carry held still for ten ticks on its third (a miniature of the fault bench's lidar
+    /// replug): with `magnet_let_go` the hold has the magnet off and the robot, still
+    /// coasting, slides 2 cm to its left along the plate, so the part stands 2 cm to its
+    /// right; the drop's pose is `drop_pose` (unknown with `None`). As the simulator's magnet
+    /// does, the magnet takes the part up wherever the switch closes on it, keeping its
+    /// sideways offset. The mission, its events, and the part's offset to the robot's left
+    /// each time the magnet took it up after the hold, m.
+    fn carry_held(
+        magnet_let_go: bool,
+        drop_pose: Option<Pose2>,
+    ) -> (Mission<FakeNavigator, Script>, Vec<MissionEvent>, Vec<f64>) {
+        use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
+        let slots = drop_pose
+            .map(|p| BTreeMap::from([(A.drop, p)]))
+            .unwrap_or_default();
+        let mut m = mission_with_slots(vec![A], slots);
+        m.config.exit_on_route_after_pick = true;
+        m.navigator.extra_ticks = 20;
+        let (mut carry_ticks, mut held_ticks) = (0, 0);
+        let mut pose = Pose2::default();
+        // After the hold: the part on the floor, or held this far to the robot's left.
+        let mut floor: Option<Pose2> = None;
+        let mut held: Option<f64> = Some(0.0);
+        let mut grips = Vec::new();
+        let mut events = Vec::new();
+        for k in 0..1500u64 {
+            let now = k * 20_000;
+            if matches!(m.state, State::ToDrop { .. }) && carry_ticks == 3 && held_ticks < 10 {
+                m.hold(now, magnet_let_go);
+                held_ticks += 1;
+                if magnet_let_go && held_ticks == 1 {
+                    let at = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
+                    floor = Some(pose.compose(Pose2::new(at, 0.0, std::f64::consts::PI)));
+                    held = None;
+                    pose = pose.compose(Pose2::new(0.0, 0.02, 0.0));
+                }
+                continue;
+            }
+            if matches!(m.state, State::ToDrop { .. }) {
+                carry_ticks += 1;
+            }
+            if let Some(across) = held.filter(|_| !m.solenoid_on && held_ticks > 0) {
+                let at = PICK_STANDOFF_M + PART_DEPTH_M / 2.0;
+                floor = Some(pose.compose(Pose2::new(at, across, std::f64::consts::PI)));
+                held = None;
+            }
+            if let Some(part) = floor.filter(|&p| m.solenoid_on && plate_touches(pose, p)) {
+                let across = pose.relative(part).y;
+                grips.push(across);
+                held = Some(across);
+                floor = None;
+            }
+            let pressed = match m.state {
+                State::ToPick { .. } | State::Gripping { .. } if held_ticks == 0 => true,
+                _ => held.is_some() || floor.is_some_and(|p| plate_touches(pose, p)),
+            };
+            let out = m.tick(now, pose, pressed);
+            pose = moved(pose, out.twist);
+            events.extend(out.events);
+        }
+        (m, events, grips)
+    }
+
+    /// Issue 17, the lidar's cable out while carrying (the fault bench's lidar replug,
+    /// tuning seeds 61–85): the core's hold let the part go while the robot coasted on, the
+    /// magnet took it up again 13–25 mm off centre when the lidar spoke again, and the part
+    /// met a divider at its drop. Away from the drop the robot now lets it go and grips it
+    /// again centred; a hold that kept the magnet on (a blinded lidar), or one near the
+    /// drop, carries on as before.
+    #[test]
+    fn a_part_the_hold_let_go_on_the_way_is_gripped_again_centred() {
+        let far = Some(Pose2::new(1.0, 0.0, 0.0));
+        let (m, events, grips) = carry_held(true, far);
+        assert!(events.contains(&MissionEvent::LetGoInHold), "{events:?}");
+        assert!(
+            events.contains(&MissionEvent::Placed { slot: A.drop }),
+            "{events:?}"
+        );
+        assert_eq!(m.actions().outcomes, [(A, true)]);
+        let last = grips.last().copied().expect("gripped again");
+        assert!(
+            last.abs() < 0.005,
+            "held {:.1} mm off centre: {grips:?}",
+            last * 1e3
+        );
+        // A drop whose pose the robot does not know counts as far.
+        assert!(
+            carry_held(true, None)
+                .1
+                .contains(&MissionEvent::LetGoInHold)
+        );
+        // Near the drop (within the jam watch's reach), or with the magnet kept on: no
+        // regrip, the part carried on where the magnet holds it.
+        for (let_go, drop_pose, offset_m) in [
+            (true, Some(Pose2::new(0.2, 0.0, 0.0)), -0.02),
+            (false, far, 0.0),
+        ] {
+            let (m, events, grips) = carry_held(let_go, drop_pose);
+            assert!(!events.contains(&MissionEvent::LetGoInHold), "{events:?}");
+            assert_eq!(m.actions().outcomes, [(A, true)], "{events:?}");
+            let held = grips.last().copied().unwrap_or(0.0);
+            assert!((held - offset_m).abs() < 1e-9, "{grips:?}");
+        }
     }
 
     /// Issue 17, the Mega's cable out for a second right after a drop: the core held the

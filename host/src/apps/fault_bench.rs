@@ -265,6 +265,7 @@ fn story_line(field: &Field, event: &RoundEvent) -> Option<String> {
             | Event::Picked { .. }
             | Event::PartSlipped { .. }
             | Event::PartJammed { .. }
+            | Event::PartLetGoInHold { .. }
             | Event::Regripped { .. }
             | Event::Placed { .. }
             | Event::Skipped { .. }

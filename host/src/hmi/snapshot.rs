@@ -47,7 +47,9 @@ pub fn event_kind(event: &Event) -> &'static str {
         Event::ActionStarted { attempt, .. } if *attempt > 1 => "retry",
         Event::ActionStarted { .. } => "action",
         Event::Picked { .. } | Event::Regripped { .. } => "pick",
-        Event::PartSlipped { .. } | Event::PartJammed { .. } => "fault",
+        Event::PartSlipped { .. } | Event::PartJammed { .. } | Event::PartLetGoInHold { .. } => {
+            "fault"
+        }
         Event::Placed { .. } => "drop",
         Event::Skipped { .. } => "skip",
         Event::Finished => "finished",

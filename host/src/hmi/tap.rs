@@ -130,7 +130,9 @@ impl HmiTap {
                 self.carrying = None;
                 self.action = None;
             }
-            Event::PartSlipped { .. } | Event::PartJammed { .. } => self.carrying = None,
+            Event::PartSlipped { .. }
+            | Event::PartJammed { .. }
+            | Event::PartLetGoInHold { .. } => self.carrying = None,
             Event::Regripped { color } => self.carrying = Some(*color),
             Event::Skipped { .. } | Event::Finished => {
                 self.action = None;

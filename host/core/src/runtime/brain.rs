@@ -22,6 +22,7 @@ use crate::referee::snapshot::SnapshotCycle;
 use crate::referee::tracker::{RequestTracker, RetryPolicy, Step};
 
 use super::event::Event;
+use super::silence::Hold;
 
 /// Where the round is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -157,24 +158,24 @@ impl Brain {
 
     /// One host tick at `now_us` with the pose estimate and the switch; `events` gets what
     /// happened. Without `may_drive` (the Mega has not been heard yet) the mission waits,
-    /// still and with the magnet off; the server is still read. With `held` (the core holds
-    /// the robot still: a device silent or its port lost) the mission stands with its clock
-    /// stopped and its magnet as it was ([`Mission::hold`]), and goes on from there at the
-    /// next tick without.
+    /// still and with the magnet off; the server is still read. With `hold.wheels` (the core
+    /// holds the robot still: a device silent or its port lost) the mission stands with its
+    /// clock stopped and its magnet as it was ([`Mission::hold`], told whether the hold has
+    /// the magnet off), and goes on from there at the next tick without.
     pub fn tick(
         &mut self,
         now_us: u64,
         pose: Pose2,
         switch_pressed: bool,
         may_drive: bool,
-        held: bool,
+        hold: Hold,
         events: &mut Vec<Event>,
     ) -> BrainTick {
         let mut out = BrainTick::default();
         match self.mission.as_mut() {
             Some(_) if !may_drive => {}
-            Some(mission) if held => {
-                mission.hold(now_us);
+            Some(mission) if hold.wheels => {
+                mission.hold(now_us, hold.magnet);
                 out.solenoid_on = mission.solenoid_on();
             }
             None => {
@@ -305,6 +306,7 @@ fn describe(actions: &TaskActions, event: MissionEvent) -> Event {
         MissionEvent::PartSlipped => Event::PartSlipped { color },
         MissionEvent::Regripped => Event::Regripped { color },
         MissionEvent::Jammed => Event::PartJammed { color },
+        MissionEvent::LetGoInHold => Event::PartLetGoInHold { color },
         MissionEvent::Skipped { action, reason } => Event::Skipped {
             pick: action.pick,
             drop: action.drop,

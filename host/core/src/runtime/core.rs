@@ -187,7 +187,7 @@ impl Core {
             self.robot.pose(),
             self.robot.switch_pressed(),
             mega_heard,
-            hold.wheels,
+            hold,
             &mut outputs.events,
         );
         outputs.referee = tick.request;

@@ -59,6 +59,13 @@ pub enum Event {
         /// Its colour as the planner knows it.
         color: Option<PartColor>,
     },
+    /// The core's hold let the carried part go away from its drop (`mission`, "Held"): the
+    /// robot moved on a little after the magnet went off, so the part may stand off the
+    /// magnet's centre; the robot grips it again centred on its plate (`mission::search`).
+    PartLetGoInHold {
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
     /// The part that fell off is held again.
     Regripped {
         /// Its colour as the planner knows it.
@@ -234,6 +241,10 @@ impl Event {
             ),
             Self::PartJammed { color } => format!(
                 "the {} part stopped short of its drop: backing off to grip it again centred",
+                color_word(*color)
+            ),
+            Self::PartLetGoInHold { color } => format!(
+                "the hold let the {} part go on the way: gripping it again centred",
                 color_word(*color)
             ),
             Self::Regripped { color } => {

@@ -22,8 +22,9 @@
 //!
 //! The hold is not latched: a lidar dropout or a Mega reset is over when data flows again,
 //! and the mission goes on (the magnet comes back on where the mission wants it, taking up
-//! again a part it let go in place). Nothing is armed before the device's first data, so
-//! bring-up is unchanged.
+//! again a part it let go in place; a part it let go on the way, away from its drop, the
+//! mission grips again centred on its plate, `mission`'s "Held"). Nothing is armed before
+//! the device's first data, so bring-up is unchanged.
 
 use super::event::Event;
 use super::input::{DeviceKind, Input};
@@ -49,7 +50,8 @@ pub const LIDAR_PACKET_SILENCE_US: u64 = 50_000;
 
 /// How long after the wheels stop the magnet lets go, µs: 60 ms. Late enough that the robot
 /// has shed about half its speed (the motors' 0.1 s time constant), so a carried part falls
-/// close to the magnet's face, where the magnet takes it up again when the hold ends; early
+/// close to the magnet's face, where it is gripped again when the hold ends (centred on its
+/// plate, since the face slides along it as the robot coasts: `mission`'s "Held"); early
 /// enough that a device gone for good has the wheels and the magnet off within issue 17's
 /// 150 ms: a Mega's last batch + [`MEGA_SILENCE_PERIODS`] (60 ms) + 60 ms + one 20 ms host
 /// tick is 141 ms; an X4's last packet + [`LIDAR_PACKET_SILENCE_US`] + 60 ms + a tick, 131 ms.
