@@ -327,18 +327,7 @@ mod tests {
     fn with_switch(totals: [i32; 4], switch_pressed: bool) -> Stamped {
         Stamped::new(
             Timestamp::ZERO,
-            Input::Wheels(WheelTelemetry {
-                totals,
-                deltas_ticks: None,
-                period_us: 20_000,
-                switch_pressed,
-                quadrature_errors: None,
-                faults: None,
-                settings_ack: None,
-                verified: true,
-                received_at_us: 0,
-                sampled_at_us: 0,
-            }),
+            Input::Wheels(WheelTelemetry::for_test(totals, switch_pressed, 0)),
         )
     }
 

@@ -147,6 +147,26 @@ struct Assembler {
     resets: u32,
 }
 
+#[cfg(test)]
+impl WheelTelemetry {
+    /// A verified batch of wheels at `totals` with the switch at `switch_pressed`, sampled and
+    /// received at `at_us`, no deltas yet, at the default 20 ms period (for tests).
+    pub(crate) fn for_test(totals: [i32; WHEEL_COUNT], switch_pressed: bool, at_us: u64) -> Self {
+        Self {
+            totals,
+            deltas_ticks: None,
+            period_us: 20_000,
+            switch_pressed,
+            quadrature_errors: None,
+            faults: None,
+            settings_ack: None,
+            verified: true,
+            received_at_us: at_us,
+            sampled_at_us: at_us,
+        }
+    }
+}
+
 impl Assembler {
     fn frame(
         &mut self,

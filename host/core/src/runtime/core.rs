@@ -642,16 +642,8 @@ mod tests {
         at(
             ms,
             Input::Wheels(crate::drivers::mega_link::WheelTelemetry {
-                totals: [0; 4],
                 deltas_ticks: Some([0; 4]),
-                period_us: 20_000,
-                switch_pressed: false,
-                quadrature_errors: None,
-                faults: None,
-                settings_ack: None,
-                verified: true,
-                received_at_us: ms * 1_000,
-                sampled_at_us: ms * 1_000,
+                ..crate::drivers::mega_link::WheelTelemetry::for_test([0; 4], false, ms * 1_000)
             }),
         )
     }
