@@ -12,7 +12,7 @@ use crate::control::route_time::RouteTimes;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
-use crate::mission::{Activity, Mission, MissionConfig, MissionEvent, search_floor};
+use crate::mission::{Activity, HeldMagnet, Mission, MissionConfig, MissionEvent, search_floor};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
     Timing, TravelTimes, check_magnet_faces,
@@ -22,7 +22,7 @@ use crate::referee::snapshot::SnapshotCycle;
 use crate::referee::tracker::{RequestTracker, RetryPolicy, Step};
 
 use super::event::Event;
-use super::silence::Hold;
+use super::silence::{Hold, MegaHeard};
 
 /// Where the round is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -175,7 +175,7 @@ impl Brain {
         match self.mission.as_mut() {
             Some(_) if !may_drive => {}
             Some(mission) if hold.wheels => {
-                mission.hold(now_us, hold.magnet);
+                mission.hold(now_us, pose, held_magnet(hold));
                 out.solenoid_on = mission.solenoid_on();
             }
             None => {
@@ -286,6 +286,18 @@ impl Brain {
 /// Start `request` on the tracker; the request to send, if it could start.
 fn start(tracker: &mut RequestTracker, request: Request, now_us: u64) -> Option<Request> {
     tracker.start(request, now_us).ok().map(|()| request)
+}
+
+/// Who let the magnet go in `hold`, as the mission needs it to know where a carried part was
+/// left: the core's command reaches a speaking Mega; a Mega with its cable out lets go on its
+/// own watchdog, and one silent on its port (a reset) at once.
+fn held_magnet(hold: Hold) -> HeldMagnet {
+    match (hold.magnet, hold.mega) {
+        (false, _) => HeldMagnet::On,
+        (true, MegaHeard::Speaking) => HeldMagnet::LetGoByCore,
+        (true, MegaHeard::PortLost) => HeldMagnet::LetGoByMegaWatchdog,
+        (true, MegaHeard::Silent) => HeldMagnet::LetGoByMegaReset,
+    }
 }
 
 /// A mission event in the core's terms, with the part's colour as the planner knows it.

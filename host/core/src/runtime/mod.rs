@@ -31,5 +31,5 @@ pub use self::output::{LidarCommand, Outputs, WheelCommand};
 pub use self::run::{Devices, Flow, RunSummary, StepView, Tap, run};
 pub use self::silence::{
     BLIND_MAGNET_HOLD_US, Hold, LIDAR_PACKET_SILENCE_US, LIDAR_SILENCE_REVOLUTIONS,
-    MAGNET_OFF_AFTER_US, MEGA_SILENCE_PERIODS, PacketWatch, SilenceGuard,
+    MAGNET_OFF_AFTER_US, MEGA_SILENCE_PERIODS, MegaHeard, PacketWatch, SilenceGuard,
 };

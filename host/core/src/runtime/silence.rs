@@ -73,6 +73,24 @@ pub struct Hold {
     pub wheels: bool,
     /// Magnet off.
     pub magnet: bool,
+    /// Whether the Mega speaks, and if not how it fell silent: its magnet then is its own.
+    pub mega: MegaHeard,
+}
+
+/// Whether the Mega speaks, as the hold sees it; a silent Mega's magnet does what the Mega
+/// does, not what the core commands.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MegaHeard {
+    /// It speaks: it applies the core's commands within a frame.
+    #[default]
+    Speaking,
+    /// Silent on a port still there: a reset or a hang, whose outputs go off at once (a
+    /// reset drops the magnet before the core knows).
+    Silent,
+    /// Its port lost (the cable out): it runs on the last commands until its own watchdog
+    /// stops the wheels, and lets the magnet go [`ratf_protocol::mcu::SOLENOID_HOLD_AFTER_STOP_US`]
+    /// later, with the robot almost at rest.
+    PortLost,
 }
 
 /// One watched device.
@@ -209,6 +227,11 @@ impl SilenceGuard {
         Hold {
             wheels: lidar.is_some() || mega.is_some(),
             magnet: self.lidar.magnet_off(lidar) || self.mega.magnet_off(mega),
+            mega: match (mega, self.mega.lost_us) {
+                (None, _) => MegaHeard::Speaking,
+                (Some(_), None) => MegaHeard::Silent,
+                (Some(_), Some(_)) => MegaHeard::PortLost,
+            },
         }
     }
 }
@@ -337,5 +360,30 @@ mod tests {
         // It streams and sees again: nothing held.
         guard.heard(&scan_with_points(), lost_at + 200_000);
         assert_eq!(guard.check(lost_at + 200_000, &mut events), Hold::default());
+    }
+
+    /// The hold says whether the Mega speaks, and if not whether its port is lost or it is
+    /// silent on it (its magnet is then its own: the mission does not take the core's
+    /// letting go as where the part was left).
+    #[test]
+    fn a_hold_says_how_the_mega_stands() {
+        let config = Config::default();
+        let limit_us = MEGA_SILENCE_PERIODS * u64::from(config.mega.control_period_us);
+        let mut events = Vec::new();
+        let mut guard = SilenceGuard::new(&config);
+        guard.heard(&scan_with_points(), 0);
+        let batch = Input::Wheels(crate::drivers::mega_link::WheelTelemetry::for_test(
+            [0; 4], false, 0,
+        ));
+        guard.heard(&batch, 0);
+        assert!(guard.lost(DeviceKind::Lidar, 1_000));
+        let held = guard.check(2_000, &mut events);
+        assert!(held.wheels && held.mega == MegaHeard::Speaking, "{held:?}");
+        guard.heard(&scan_with_points(), 3_000);
+        let held = guard.check(limit_us + 1_000, &mut events);
+        assert!(held.wheels && held.mega == MegaHeard::Silent, "{held:?}");
+        assert!(guard.lost(DeviceKind::Mega, limit_us + 2_000));
+        let held = guard.check(limit_us + 3_000, &mut events);
+        assert!(held.wheels && held.mega == MegaHeard::PortLost, "{held:?}");
     }
 }
