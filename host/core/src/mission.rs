@@ -41,10 +41,11 @@
 //! its plate, as after a jam: it coasted on meanwhile, and the magnet, back on, took the part
 //! up wherever its face had slid to. The looks start behind where the part was let go, which
 //! depends on who let it go ([`HeldMagnet`]): a robot turning as the hold began had turned on
-//! several degrees by then, and a Mega with its cable out turns on until its watchdog. A part that slips off the magnet while the robot drives is looked for,
-//! also near its drop: it lands ahead of the moving robot, turned and off to a side, and the
-//! robot pushes it on; only a part let go in place stands in its slot (round 2 at seed 4,
-//! part slip 3 cm short of machine B's input: taken for placed, it lay there unscored).
+//! several degrees by then, and a Mega with its cable out turns on until its watchdog. A part
+//! that slips off the magnet while the robot drives is looked for, also near its drop: it lands
+//! ahead of the moving robot, turned and off to a side, and the robot pushes it on; only a part let
+//! go in place stands in its slot (round 2 at seed 4, part slip 3 cm short of machine B's input:
+//! taken for placed, it lay there unscored).
 
 mod jam;
 mod search;
@@ -272,6 +273,18 @@ pub enum HeldMagnet {
     /// Let go by a Mega fallen silent on its port (a reset): at once, before the core knew,
     /// about where the carry's trail ends.
     LetGoByMegaReset,
+}
+
+/// A hold of the core as the mission lives it ([`Mission::hold`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct CoreHold {
+    /// When it began, µs.
+    since_us: u64,
+    /// Whether it has had the magnet off.
+    let_go: bool,
+    /// Where it let the carried part go, judged from who let it go ([`HeldMagnet`]): the part
+    /// stands square ahead.
+    let_go_pose: Option<Pose2>,
 }
 
 /// What the mission reports.
@@ -529,13 +542,8 @@ pub struct Mission<N, A> {
     floor: FreeSpace,
     /// Each slot's pick pose (where a part is dropped too), by its waypoint.
     slot_poses: BTreeMap<WaypointId, Pose2>,
-    /// Since when the core holds the robot ([`Mission::hold`]), µs.
-    held_since_us: Option<u64>,
-    /// Whether the hold has had the magnet off.
-    hold_let_go: bool,
-    /// Where the hold let the carried part go, as [`Mission::hold`] judged it from who let
-    /// it go: the part stands square ahead.
-    let_go_pose: Option<Pose2>,
+    /// The core's hold the mission stands in ([`Mission::hold`]), until its next tick.
+    held: Option<CoreHold>,
     /// Whether the carried part has stopped getting closer to its drop.
     jam: JamWatch,
     /// Times this action's part was let go and gripped again after a jam.
@@ -563,9 +571,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             search: None,
             floor,
             slot_poses,
-            held_since_us: None,
-            hold_let_go: false,
-            let_go_pose: None,
+            held: None,
             jam: JamWatch::default(),
             reseats: 0,
         }
@@ -620,11 +626,10 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     /// One host tick.
     pub fn tick(&mut self, now_us: u64, pose: Pose2, switch_pressed: bool) -> MissionOutput {
         let mut events = Vec::new();
-        if let Some(since_us) = self.held_since_us.take() {
-            self.resume(now_us.saturating_sub(since_us), now_us);
-            let let_go_pose = self.let_go_pose.take();
-            if std::mem::take(&mut self.hold_let_go) {
-                self.grip_again_after_hold(now_us, pose, let_go_pose, &mut events);
+        if let Some(held) = self.held.take() {
+            self.resume(now_us.saturating_sub(held.since_us), now_us);
+            if held.let_go {
+                self.grip_again_after_hold(now_us, pose, held.let_go_pose, &mut events);
             }
         }
         let twist = self.advance(now_us, pose, switch_pressed, &mut events);
@@ -641,11 +646,16 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     ///
     /// `pose` is the estimate this tick; `magnet` says who let a carried part go, and so
     /// where it stands: square ahead of the pose at the core's first command
-    /// ([`HeldMagnet::LetGoByCore`]), of the last held pose ([`HeldMagnet::LetGoByMegaWatchdog`]),
-    /// or of where the trail ends ([`HeldMagnet::LetGoByMegaReset`]). Only a part carried
-    /// with the switch closed at the last tick counts.
+    /// ([`HeldMagnet::LetGoByCore`]), of the last held pose
+    /// ([`HeldMagnet::LetGoByMegaWatchdog`]), or of where the trail ends
+    /// ([`HeldMagnet::LetGoByMegaReset`]). Only a part carried with the switch closed at the
+    /// last tick counts.
     pub fn hold(&mut self, now_us: u64, pose: Pose2, magnet: HeldMagnet) {
-        self.held_since_us.get_or_insert(now_us);
+        let held = self.held.get_or_insert(CoreHold {
+            since_us: now_us,
+            let_go: false,
+            let_go_pose: None,
+        });
         let carrying_closed = matches!(
             self.state,
             State::ToDrop {
@@ -655,18 +665,18 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             }
         );
         match magnet {
-            HeldMagnet::LetGoByCore if !self.hold_let_go && carrying_closed => {
-                self.let_go_pose = Some(pose);
+            HeldMagnet::LetGoByCore if !held.let_go && carrying_closed => {
+                held.let_go_pose = Some(pose);
             }
-            HeldMagnet::LetGoByMegaWatchdog if carrying_closed => self.let_go_pose = Some(pose),
+            HeldMagnet::LetGoByMegaWatchdog if carrying_closed => held.let_go_pose = Some(pose),
             _ => {}
         }
-        self.hold_let_go |= magnet != HeldMagnet::On;
+        held.let_go |= magnet != HeldMagnet::On;
     }
 
     /// True while the mission stands held ([`Self::hold`]) and has not ticked since.
     pub fn is_held(&self) -> bool {
-        self.held_since_us.is_some()
+        self.held.is_some()
     }
 
     /// The magnet level the mission wants.

@@ -88,8 +88,9 @@ pub enum MegaHeard {
     /// reset drops the magnet before the core knows).
     Silent,
     /// Its port lost (the cable out): it runs on the last commands until its own watchdog
-    /// stops the wheels, and lets the magnet go [`ratf_protocol::mcu::SOLENOID_HOLD_AFTER_STOP_US`]
-    /// later, with the robot almost at rest.
+    /// stops the wheels, and lets the magnet go
+    /// [`ratf_protocol::mcu::SOLENOID_HOLD_AFTER_STOP_US`] later, with the robot almost at
+    /// rest.
     PortLost,
 }
 
