@@ -44,13 +44,14 @@ use crate::contact::{Shape, push_out};
 use crate::imu::{SimErrors, SimMotion, SimMpu9255};
 use crate::lidar::{LidarScene, SimLidar, Solid};
 use crate::motor::{Battery, ELECTRONICS_CURRENT_A, Motor};
-use crate::parts::{Gripper, PartEvent, Shop};
+use crate::parts::{Gripper, PartEvent, PartPlace, Shop};
 use crate::serial::SerialLine;
 use crate::truth::WorldTruth;
 use ratf_core::config::{Config, MotorConfig, WorldProfile};
 use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::PartColor;
+use ratf_core::field::WaypointId;
 use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::kinematics::Mecanum;
 use ratf_core::rng::SimRng;
@@ -638,6 +639,58 @@ impl World {
             r.footprint_length_m,
             r.footprint_width_m,
         )
+    }
+
+    /// The picks the parts' places crowd: (slot, part) for each standing part that the
+    /// robot's true outline, grown by `margin_m` on every side, would overlap as it reaches
+    /// the part in `slot` — square on the slot's centre line (the robot cannot see where a
+    /// part stands across its slot), its magnet's face on the part's nearest point. A
+    /// neighbour standing out of its slot further than the body's front reaches there
+    /// (margin 0) is touched by any robot of this outline picking that slot square; the harsh
+    /// world draws such places (parts up to 15 mm off the back wall and 8° turned,
+    /// real-world-errors.md §9). Taken where the parts stand now (at the start, as the
+    /// referee placed them).
+    pub fn crowded_picks(&self, margin_m: f64) -> Vec<(WaypointId, usize)> {
+        let parts = self.shop.parts();
+        let standing: Vec<(usize, WaypointId, OrientedRect)> = (0..parts.len())
+            .filter_map(|part| match parts[part].place {
+                PartPlace::Slot(slot) => {
+                    Some((part, slot, self.shop.footprint(part, self.body.pose)))
+                }
+                _ => None,
+            })
+            .collect();
+        let magnet_m = self.shop.gripper().magnet_m;
+        let r = &self.config.robot;
+        let mut crowded = Vec::new();
+        for &(target, slot_id, rect) in &standing {
+            let Some(slot) = self.field.slot_for_waypoint(slot_id) else {
+                continue;
+            };
+            let line = slot.pick_pose;
+            let ahead = Vec2::from_angle(line.yaw_rad);
+            let nearest = rect
+                .corners()
+                .into_iter()
+                .map(|c| (c - line.position()).dot(ahead))
+                .fold(f64::INFINITY, f64::min);
+            let at = line.position() + ahead * (nearest - magnet_m);
+            let robot = Pose2::new(at.x, at.y, line.yaw_rad);
+            let body = OrientedRect::new(
+                robot.compose(self.body_offset),
+                r.footprint_length_m + 2.0 * margin_m,
+                r.footprint_width_m + 2.0 * margin_m,
+            );
+            crowded.extend(
+                standing
+                    .iter()
+                    .filter(|&&(other, _, other_rect)| {
+                        other != target && push_out(&body, &Shape::Rect(other_rect)).is_some()
+                    })
+                    .map(|&(other, _, _)| (slot_id, other)),
+            );
+        }
+        crowded
     }
 
     /// Gap (m) within which a contact lasts: a robot pressed against a wall, whose controller
@@ -1383,5 +1436,43 @@ mod tests {
         // Near a corner the circle must reach the corner itself (0.042 m vs 0.057 m away).
         assert!(circle_overlaps(&rect, Vec2::new(0.18, 0.18), 0.045));
         assert!(!circle_overlaps(&rect, Vec2::new(0.19, 0.19), 0.045));
+    }
+
+    /// Incoming slot 1's part against the back wall, square; slot 2's `out_m` off the wall
+    /// and turned `yaw_deg`; the rest centred.
+    fn seated_world(out_m: f64, yaw_deg: f64) -> World {
+        let config = Config::default().in_world(WorldProfile::Ideal);
+        let mut world = World::new(
+            &config,
+            &Scenario {
+                incoming: [Some(PartColor::Blue); 4],
+                ..Scenario::new(&config)
+            },
+        );
+        let mut seats = [crate::truth::PartSeat::default(); 4];
+        seats[1] = crate::truth::PartSeat {
+            across_m: 0.0,
+            gap_m: out_m,
+            yaw_deg,
+        };
+        world.shop.seat_incoming(&seats);
+        world
+    }
+
+    #[test]
+    fn a_neighbour_standing_out_further_than_the_body_reaches_crowds_the_pick() {
+        // Centred against the wall: no pick is crowded.
+        assert_eq!(seated_world(0.0, 0.0).crowded_picks(0.0), vec![]);
+        // 5 mm off the wall, square: slot 1's body front (15 mm behind its plate) is clear.
+        assert_eq!(seated_world(0.005, 0.0).crowded_picks(0.0), vec![]);
+        // 15 mm off and turned 8° (the harsh world's limits): its corner stands 21 mm out,
+        // into the body of a robot picking slot 1 or slot 3, not slot 4 (beyond reach).
+        let crowded = seated_world(0.015, 8.0).crowded_picks(0.0);
+        assert_eq!(crowded, vec![(WaypointId(50), 1), (WaypointId(52), 1)]);
+        // Square 5 mm off the wall it leaves the body 10 mm: crowded only within a margin
+        // beyond that.
+        assert_eq!(seated_world(0.005, 0.0).crowded_picks(0.009), vec![]);
+        let within = seated_world(0.005, 0.0).crowded_picks(0.011);
+        assert_eq!(within, vec![(WaypointId(50), 1), (WaypointId(52), 1)]);
     }
 }

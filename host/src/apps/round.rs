@@ -23,6 +23,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::apps::calibrate::{self, CalibrateError};
+use crate::apps::collision_causes::{CollisionCauses, CollisionClassifier};
 use crate::apps::fault_round::{AFTER_STOP_FAULT_US, FaultOutcome, RoundFaults};
 use crate::apps::time_split::{TimeSplit, TimeSplitTap};
 use crate::devices::operator::{OperatorReceiver, WithOperator, operator_channel};
@@ -131,6 +132,8 @@ pub struct RoundReport {
     pub inputs: u64,
     /// Where the time from the part list to the last placement went.
     pub time_split: TimeSplit,
+    /// What the collisions were.
+    pub collision_causes: CollisionCauses,
 }
 
 /// Why a round could not run.
@@ -489,6 +492,19 @@ pub fn run_faulted(
     let mut devices = WithOperator::new(Paced::new(round_devices, live.speed), commands);
     let abort = live.abort;
     let mut core = Core::new(&robot_config, scenario.start_pose)?;
+    let mut classifier = CollisionClassifier::new(
+        field.clone(),
+        devices
+            .inner_mut()
+            .inner_mut()
+            .sim
+            .world()
+            .crowded_picks(0.0),
+    );
+    let mut on_event = |event: &RoundEvent| {
+        classifier.hear(event);
+        on_event(event);
+    };
 
     let (mut pos_sq, mut heading_sq, mut samples) = (0.0, 0.0, 0u64);
     let mut last_batches = 0;
@@ -602,6 +618,7 @@ pub fn run_faulted(
         heading_rmse_deg: (heading_sq / n).sqrt().to_degrees(),
         inputs: summary.inputs,
         time_split,
+        collision_causes: classifier.causes(),
     };
     Ok((report, outcome))
 }
@@ -702,6 +719,8 @@ pub struct BenchRow {
     pub time_over_bound: f64,
     /// Where the time went, mean over the full-score runs.
     pub time_split: TimeSplit,
+    /// What the collisions were, over all runs.
+    pub collision_causes: CollisionCauses,
 }
 
 /// What a rounds benchmark tells as it goes.
@@ -760,6 +779,7 @@ pub fn bench(
                 bound_s: bounds.values().sum::<f64>() / bounds.len().max(1) as f64,
                 time_over_bound: 0.0,
                 time_split: TimeSplit::default(),
+                collision_causes: CollisionCauses::default(),
             };
             let mut full = 0u32;
             for seed in seeds.clone() {
@@ -772,6 +792,7 @@ pub fn bench(
                 row.runs += 1;
                 row.collisions += report.collisions;
                 row.timeouts += report.timeouts;
+                row.collision_causes += report.collision_causes;
                 if report.points == full_score(round) && report.outgoing == 4 {
                     full += 1;
                     row.mean_time_s += report.time_s;

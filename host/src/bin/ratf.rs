@@ -1697,6 +1697,31 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
         );
     }
     println!(
+        "what the collisions were, over all runs (ratf_host::apps::collision_causes): going to \
+         a pick / carrying / elsewhere"
+    );
+    println!(
+        "{:<6} {:<9} {:>17} {:>14} {:>14} {:>14} {:>11}",
+        "round", "policy", "crowded neighbour", "part", "warehouse", "machine", "pole"
+    );
+    for r in &rows {
+        let c = &r.collision_causes;
+        let legs = |pick: u32, carry: u32, other: u32| format!("{pick} / {carry} / {other}");
+        let cell = |f: fn(&ratf_host::apps::collision_causes::Struck) -> u32| {
+            legs(f(&c.to_pick), f(&c.carrying), f(&c.elsewhere))
+        };
+        println!(
+            "{:<6} {:<9} {:>17} {:>14} {:>14} {:>14} {:>11}",
+            r.round,
+            r.policy.name(),
+            cell(|s| s.crowded_neighbour),
+            cell(|s| s.part),
+            cell(|s| s.warehouse),
+            cell(|s| s.machine),
+            cell(|s| s.pole)
+        );
+    }
+    println!(
         "times: from the part list to the last placement, over the full-score runs; machine \
          delay {} s; bound: the least time physics and the rules allow each seed's arrangement \
          (ratf_core::planning::bound), mean over the seeds; {:.1} s wall",
