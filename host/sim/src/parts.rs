@@ -6,7 +6,8 @@
 //! to touch a box whose plate is recessed 10 mm behind the dividers (`field::PICK_STANDOFF_M`
 //! leaves 15 mm). The switch closes when a part's plate is within that reach, roughly square
 //! and centred; the magnet, when energised with the switch closed, pulls the plate flat
-//! against its face (where the plate is at a slot's pick pose) and holds the part rigidly;
+//! against its face (where the plate is at a slot's pick pose; the world stops it part-way
+//! where a neighbour or a wall is in the way, `World`'s contact) and holds the part rigidly;
 //! released, the part drops where it is and stands in a slot if it lands between the slot's
 //! dividers (see `SLOT_CAPTURE_*`).
 //!
@@ -357,6 +358,26 @@ impl Shop {
             .iter()
             .find(|s| s.box_center.distance(point) <= NEAR_SLOT_M)
             .map(|s| s.waypoint)
+    }
+
+    /// Where the carried part `part` sits on the magnet, in the robot's frame (`None` if it
+    /// is not carried).
+    pub fn held_at(&self, part: usize) -> Option<Pose2> {
+        match self.parts.get(part)?.place {
+            PartPlace::Carried(local) => Some(local),
+            _ => None,
+        }
+    }
+
+    /// Contact: the carried part `part` sits at `local` (robot frame) on the magnet instead,
+    /// where something on the floor stopped the magnet pulling it flat. No-op if the part is
+    /// not carried.
+    pub fn hold_at(&mut self, part: usize, local: Pose2) {
+        if let Some(p) = self.parts.get_mut(part)
+            && matches!(p.place, PartPlace::Carried(_))
+        {
+            p.place = PartPlace::Carried(local);
+        }
     }
 
     /// Fault injection: put part `part` on the floor at `world` (knocked out of its slot, or

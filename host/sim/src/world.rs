@@ -19,7 +19,8 @@
 //!    contact keeps it (and the part it carries) out of walls, dividers, beacon poles and
 //!    parts, and pushes the free parts it runs into (see [`World::footprint`], `contact`);
 //! 4. the lidar takes the samples due in the step; the IMU sees the body's yaw rate;
-//! 5. the magnet and the machines act on the parts.
+//! 5. the magnet and the machines act on the parts; with contact, a part the magnet takes up
+//!    turns and moves flat onto its face only as far as what stands beside it lets it.
 //!
 //! Contact is a rigid-body projection, no dynamics: the robot's true outline (the truth's
 //! footprint, off the wheels' centre by its offset) is moved out of what it entered along the
@@ -52,7 +53,8 @@ use ratf_core::field::Field;
 use ratf_core::field::OrientedRect;
 use ratf_core::field::PartColor;
 use ratf_core::field::WaypointId;
-use ratf_core::field::geometry::{Pose2, Vec2};
+use ratf_core::field::geometry::{Pose2, Vec2, wrap_angle};
+use ratf_core::field::{PART_DEPTH_M, PART_WIDTH_M};
 use ratf_core::kinematics::Mecanum;
 use ratf_core::rng::SimRng;
 
@@ -589,10 +591,20 @@ impl World {
             ..SimMotion::default()
         });
 
+        // Where the part the magnet may take up stands before it does.
+        let before_grip = (self.contact && self.shop.carried().is_none())
+            .then(|| self.shop.switch_contact(self.body.pose))
+            .flatten()
+            .map(|part| (part, self.shop.footprint(part, self.body.pose).pose));
         for event in self
             .shop
             .step(now_us, self.body.pose, self.actuation.solenoid_on)
         {
+            if let (PartEvent::Picked { part, .. }, Some((found, stood))) = (event, before_grip)
+                && part == found
+            {
+                self.pull_flat_as_far_as_free(part, stood);
+            }
             if let PartEvent::Placed { part, .. } | PartEvent::Dropped { part } = event
                 && self.contact
             {
@@ -873,6 +885,55 @@ impl World {
         }
         touched.extend(lasting);
         self.in_contact = touched;
+    }
+
+    /// Steps of the search for how far the magnet pulls a part flat: 2⁻¹² of the way.
+    const FLATTEN_STEPS: usize = 12;
+
+    /// The magnet pulls the plate of part `part`, which stood at `stood`, flat against its
+    /// face ([`Shop::step`] puts it there at once): here it moves and turns only as far along
+    /// that way as the walls, the poles and the other parts let it, and stays there, held as
+    /// far as it got. Without this the part was put flat through a divider or a neighbour it
+    /// stood against (a part fallen off the magnet and lying turned beside a slot), and the
+    /// next step's contact pushed the robot off it as if the robot had driven into it. The
+    /// walls of the slot the part stands in do not stop it: the magnet presses a part there
+    /// by design, and [`Self::note_contact`] does not count those.
+    fn pull_flat_as_far_as_free(&mut self, part: usize, stood: Pose2) {
+        let robot = self.body.pose;
+        let Some(flat) = self.shop.held_at(part) else {
+            return;
+        };
+        let found = robot.relative(stood);
+        let at = |t: f64| {
+            Pose2::new(
+                found.x + (flat.x - found.x) * t,
+                found.y + (flat.y - found.y) * t,
+                found.yaw_rad + wrap_angle(flat.yaw_rad - found.yaw_rad) * t,
+            )
+        };
+        let solids = self.floor_solids();
+        let is_free = |local: Pose2| {
+            let world = robot.compose(local);
+            let in_its_slot = self.shop.slot_at(world).is_some();
+            let rect = OrientedRect::new(world, PART_DEPTH_M, PART_WIDTH_M);
+            solids.iter().all(|(shape, what)| {
+                (in_its_slot && matches!(what, Obstruction::Wall(_)))
+                    || push_out(&rect, shape).is_none()
+            })
+        };
+        if is_free(flat) {
+            return;
+        }
+        let (mut free, mut blocked) = (0.0, 1.0);
+        for _ in 0..Self::FLATTEN_STEPS {
+            let mid = (free + blocked) / 2.0;
+            if is_free(at(mid)) {
+                free = mid;
+            } else {
+                blocked = mid;
+            }
+        }
+        self.shop.hold_at(part, at(free));
     }
 
     /// Record a contact of the robot (or, `by_carried`, its carried part) with `what`. The
@@ -1312,6 +1373,79 @@ mod tests {
                 world.collisions()
             );
         }
+    }
+
+    /// A robot standing still at `start` whose magnet takes up part 0 lying turned 14° on
+    /// the floor in front of it, its plate against the magnet's face, with part 1 (if
+    /// `blocked`) square behind part 0's far corner, where pulling part 0 flat swings it.
+    /// Returns the world once the part is held (or after 100 steps).
+    fn grip_turned_part(blocked: bool) -> World {
+        let config = Config::default().in_world(WorldProfile::Ideal);
+        let start = Pose2::new(-0.8, 0.0, 0.0);
+        let mut world = World::new(
+            &config,
+            &Scenario {
+                start_pose: start,
+                incoming: [Some(PartColor::Blue), Some(PartColor::Blue), None, None],
+                ..Scenario::new(&config)
+            },
+        );
+        world.contact = true;
+        let gripper = world.shop().gripper();
+        // Where part 0 is held flat, in the world; the part lies there turned 14°.
+        let flat = start.compose(Pose2::new(
+            gripper.magnet_m + PART_DEPTH_M / 2.0,
+            0.0,
+            std::f64::consts::PI,
+        ));
+        let turned = Pose2::new(flat.x, flat.y, flat.yaw_rad + 14f64.to_radians());
+        world.put_part_on_floor(0, turned);
+        world.put_part_on_floor(1, Pose2::new(flat.x + 0.07, flat.y + 0.2, 0.0));
+        if blocked {
+            // Its corner 50 mm from part 0's centre at 240° in part 0's flat frame: outside
+            // the part turned, 5 mm inside it flat.
+            let corner = Vec2::new(-0.025, -0.0433);
+            let centre = corner - Vec2::new(PART_DEPTH_M / 2.0, PART_WIDTH_M / 2.0);
+            world.put_part_on_floor(1, flat.compose(Pose2::new(centre.x, centre.y, 0.0)));
+        }
+        drive_until(
+            &mut world,
+            ratf_core::kinematics::BodyTwist::new(0.0, 0.0, 0.0),
+            true,
+            100,
+            |w| w.shop().carried().is_some(),
+        );
+        world
+    }
+
+    /// The bug this guards: the magnet put a part it took up flat against its face at once,
+    /// through whatever stood beside it, and the next step's contact pushed the robot off
+    /// that as a collision (a part fallen off the magnet and lying turned beside a slot,
+    /// gripped again: about a sixth of the part slip and knocked part rows' collisions on
+    /// the fault bench's seeds 61–85).
+    #[test]
+    fn a_part_the_magnet_pulls_flat_stops_turning_where_a_neighbour_blocks_it() {
+        let free = grip_turned_part(false);
+        let held = free.shop().held_at(0).expect("gripped");
+        assert!(
+            wrap_angle(held.yaw_rad - std::f64::consts::PI).abs() < 1e-9,
+            "{held:?}"
+        );
+        let blocked = grip_turned_part(true);
+        let held = blocked.shop().held_at(0).expect("gripped");
+        let left_turned = wrap_angle(held.yaw_rad - std::f64::consts::PI).abs();
+        assert!(
+            (1f64.to_radians()..14f64.to_radians()).contains(&left_turned),
+            "{held:?}"
+        );
+        assert!(
+            blocked.collisions().is_empty(),
+            "{:?}",
+            blocked.collisions()
+        );
+        let part = blocked.shop().footprint(0, blocked.body().pose);
+        let neighbour = blocked.shop().footprint(1, blocked.body().pose);
+        assert!(push_out(&part, &Shape::Rect(neighbour)).is_none());
     }
 
     #[test]

@@ -107,6 +107,13 @@ impl CollisionClassifier {
         }
     }
 
+    /// The picks the parts' places crowd from now on (slot, part), as
+    /// `ratf_sim::World::crowded_picks` finds them now: parts move in a round (knocked out of
+    /// a slot, pushed), so the round asks again as the robot sets out for each pick.
+    pub fn crowd(&mut self, crowded: Vec<(WaypointId, usize)>) {
+        self.crowded = crowded;
+    }
+
     /// Hear the next event.
     pub fn hear(&mut self, event: &RoundEvent) {
         match event {
@@ -235,5 +242,30 @@ mod tests {
             }
         );
         assert_eq!(causes.total(), 6);
+    }
+
+    #[test]
+    fn a_part_that_came_to_crowd_a_pick_counts_as_crowding_it_from_then_on() {
+        let mut classifier = CollisionClassifier::new(Field::competition(), Vec::new());
+        let going_for_51 = core(Event::ActionStarted {
+            pick: WaypointId(51),
+            drop: WaypointId(62),
+            color: Some(PartColor::Blue),
+            attempt: 1,
+        });
+        classifier.hear(&going_for_51);
+        classifier.hear(&hit(Obstruction::Part(2)));
+        // Part 2 knocked out of its slot beside 51 since: it crowds 51's pick now.
+        classifier.crowd(vec![(WaypointId(51), 2)]);
+        classifier.hear(&going_for_51);
+        classifier.hear(&hit(Obstruction::Part(2)));
+        assert_eq!(
+            classifier.causes().to_pick,
+            Struck {
+                crowded_neighbour: 1,
+                part: 1,
+                ..Struck::default()
+            }
+        );
     }
 }

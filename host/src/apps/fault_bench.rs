@@ -96,6 +96,11 @@ pub struct FaultRow {
     /// Collisions over the fault-free runs of the same seeds and rounds (the world's own,
     /// without the fault).
     pub fault_free_collisions: u32,
+    /// Of [`Self::collisions`], those with a part standing where it crowds the pick the robot
+    /// was going to, as the parts stood when it set out (a part knocked out beside it):
+    /// `ratf_sim::World::crowded_picks`, [`crate::apps::collision_causes`]. No outline that
+    /// picks square on the slot's line can avoid them.
+    pub crowded_collisions: u32,
     /// Actions given up over all runs.
     pub given_up: u32,
     /// Host ticks that drove (wheels non-zero or magnet on) later than 150 ms after a fault
@@ -150,6 +155,7 @@ pub fn bench(
             max_time_lost_s: 0.0,
             collisions: 0,
             fault_free_collisions: 0,
+            crowded_collisions: 0,
             given_up: 0,
             unsafe_events: 0,
             max_stop_ms: None,
@@ -222,6 +228,7 @@ pub fn bench(
                 row.mean_points += f64::from(report.points);
                 row.collisions += report.collisions;
                 row.fault_free_collisions += base.collisions;
+                row.crowded_collisions += report.collision_causes.to_pick.crowded_neighbour;
                 row.given_up += report.timeouts;
                 row.unsafe_events += outcome.unsafe_ticks;
                 if let Some(stop_us) = outcome.stop_after_fault_us {

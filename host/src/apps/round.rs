@@ -45,7 +45,7 @@ use ratf_sim::faults::FaultPlan;
 use ratf_sim::parts::{PartEvent, PartPlace};
 use ratf_sim::referee::{MockError, MockReferee, MockSettings, ServerSlot, round_parts};
 use ratf_sim::truth::WorldTruth;
-use ratf_sim::world::{Collision, Scenario};
+use ratf_sim::world::{Collision, Scenario, World};
 
 /// When the operator starts the mock server, s after power-up.
 pub const START_DELAY_S: f64 = 1.0;
@@ -501,7 +501,16 @@ pub fn run_faulted(
             .world()
             .crowded_picks(0.0),
     );
-    let mut on_event = |event: &RoundEvent| {
+    // Where the parts stand crowds a pick as the robot sets out for it: a part knocked out
+    // of its slot or pushed out of it since the start crowds the picks beside it.
+    let mut on_event = |event: &RoundEvent, world: &World| {
+        if let RoundEvent::Core {
+            event: Event::ActionStarted { .. },
+            ..
+        } = event
+        {
+            classifier.crowd(world.crowded_picks(0.0));
+        }
         classifier.hear(event);
         on_event(event);
     };
@@ -518,18 +527,21 @@ pub fn run_faulted(
     let summary = run(&mut core, &mut devices, &mut all_taps, |core, devices| {
         let devices = devices.inner_mut().inner_mut();
         for event in devices.events.drain(..) {
-            on_event(&event);
+            on_event(&event, devices.sim.world());
         }
         if !devices.sim.step_complete() {
             return Flow::Continue;
         }
         // The world step's inputs are all in: measure against the truth.
         if std::mem::take(&mut devices.ticked) {
-            on_event(&RoundEvent::Tick {
-                time: Timestamp::from_us(devices.sim.now_us()),
-                truth: devices.sim.world().body().pose,
-                estimate: core.pose(),
-            });
+            on_event(
+                &RoundEvent::Tick {
+                    time: Timestamp::from_us(devices.sim.now_us()),
+                    truth: devices.sim.world().body().pose,
+                    estimate: core.pose(),
+                },
+                devices.sim.world(),
+            );
         }
         let batches = devices.sim.wheel_batches();
         if batches != last_batches
@@ -558,7 +570,7 @@ pub fn run_faulted(
     let devices = devices.inner_mut().inner_mut();
     devices.settle_floor();
     for event in devices.events.drain(..) {
-        on_event(&event);
+        on_event(&event, devices.sim.world());
     }
 
     let world = devices.sim.world();

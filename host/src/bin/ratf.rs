@@ -1793,7 +1793,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
         bench.fault_free_full_score_rate * 100.0
     );
     println!(
-        "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>7} {:>7} {:>6} {:>7}",
+        "{:<17} {:<5} {:>11} {:>14} {:>6} {:>8} {:>9} {:>7} {:>7} {:>7} {:>6} {:>7}",
         "fault",
         "recov",
         "full score",
@@ -1802,6 +1802,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
         "happened",
         "time lost",
         "coll.",
+        "crowded",
         "gave up",
         "unsafe",
         "stop ms"
@@ -1812,7 +1813,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             .map(|f| format!("{:.0}", f * 100.0))
             .join("/");
         println!(
-            "{:<17} {:<5} {:>10.0}% {:>14} {:>6.2} {:>8} {:>8.1}s {:>7} {:>7} {:>6} {:>7}",
+            "{:<17} {:<5} {:>10.0}% {:>14} {:>6.2} {:>8} {:>8.1}s {:>7} {:>7} {:>7} {:>6} {:>7}",
             r.fault,
             if r.recoverable { "yes" } else { "no" },
             r.full_score_rate * 100.0,
@@ -1821,6 +1822,7 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
             format!("{}/{}", r.injected, r.runs),
             r.mean_time_lost_s,
             format!("{}/{}", r.collisions, r.fault_free_collisions),
+            r.crowded_collisions,
             r.given_up,
             r.unsafe_events,
             r.max_stop_ms
@@ -1829,7 +1831,9 @@ fn faults_bench_command(args: &FaultsBenchArgs) -> anyhow::Result<()> {
     }
     println!(
         "time lost: mean against the fault-free run of the same seed, over runs where both \
-         scored fully; coll.: collisions with the fault / in the fault-free runs; unsafe: host ticks driving (wheels or magnet) more than 150 ms after \
+         scored fully; coll.: collisions with the fault / in the fault-free runs; crowded: of \
+         those with the fault, a part standing where it crowds the pick the robot set out for \
+         (ratf_sim::World::crowded_picks, unavoidable for this outline); unsafe: host ticks driving (wheels or magnet) more than 150 ms after \
          a stop fault became knowable (50 ms without a lidar packet, 3 Mega periods); stop ms: from \
          the fault itself to the last driving tick, worst run; {:.1} s wall",
         started.elapsed().as_secs_f64()
