@@ -7,7 +7,7 @@
 //! are disjoint exactly when some edge normal of one of them separates their projections (the
 //! separating axis theorem), so for two rectangles four axes suffice.
 
-use super::geometry::{Pose2, Rect, Vec2};
+use super::geometry::{Pose2, Rect, Segment, Vec2};
 
 /// A rectangle at any orientation, m and rad.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,6 +82,41 @@ impl OrientedRect {
     pub fn overlaps_rect(&self, rect: Rect) -> bool {
         self.overlaps(&Self::from_rect(rect))
     }
+
+    /// The four edges, counter-clockwise.
+    fn edges(&self) -> [Segment; 4] {
+        let c = self.corners();
+        [0, 1, 2, 3].map(|i| Segment::new(c[i], c[(i + 1) % 4]))
+    }
+
+    /// Distance from `p` to the rectangle, m (0 inside it).
+    pub fn distance_to_point(&self, p: Vec2) -> f64 {
+        let local = self.pose.inverse_transform_point(p);
+        let dx = (local.x.abs() - self.half_x_m).max(0.0);
+        let dy = (local.y.abs() - self.half_y_m).max(0.0);
+        dx.hypot(dy)
+    }
+
+    /// Radius of the circle about the centre that holds the rectangle, m.
+    pub fn circumradius_m(&self) -> f64 {
+        self.half_x_m.hypot(self.half_y_m)
+    }
+
+    /// The gap between the two rectangles, m: 0 when they overlap or touch, else the
+    /// least distance between their outlines (for convex polygons apart, always between a
+    /// corner of one and an edge of the other).
+    pub fn distance_to(&self, other: &OrientedRect) -> f64 {
+        if self.penetrates(other, 0.0) {
+            return 0.0;
+        }
+        let from_corners = |a: &OrientedRect, b: &OrientedRect| {
+            a.corners()
+                .into_iter()
+                .flat_map(|corner| b.edges().map(|edge| edge.distance_to_point(corner)))
+                .fold(f64::INFINITY, f64::min)
+        };
+        from_corners(self, other).min(from_corners(other, self))
+    }
 }
 
 #[cfg(test)]
@@ -110,7 +145,59 @@ mod tests {
         assert!(!robot(-0.02, 0.0, FRAC_PI_4).overlaps_rect(wall));
     }
 
+    #[test]
+    fn distances_between_rectangles_and_to_points() {
+        let wall = OrientedRect::from_rect(Rect::from_spans(0.2, 0.4, -1.0, 1.0));
+        assert!((robot(0.0, 0.0, 0.0).distance_to(&wall) - 0.05).abs() < 1e-12);
+        assert_eq!(robot(0.06, 0.0, 0.0).distance_to(&wall), 0.0);
+        // At 45° the corner leads: 0.2 − 0.212.. from x = −0.05.
+        let turned = robot(-0.05, 0.0, FRAC_PI_4).distance_to(&wall);
+        assert!(
+            (turned - (0.25 - 0.15 * 2f64.sqrt())).abs() < 1e-12,
+            "{turned}"
+        );
+        // Corner to corner, diagonally apart.
+        let post = OrientedRect::from_rect(Rect::from_spans(0.25, 0.35, 0.25, 0.35));
+        let gap = robot(0.0, 0.0, 0.0).distance_to(&post);
+        assert!((gap - 0.1 * 2f64.sqrt()).abs() < 1e-12, "{gap}");
+        assert!((wall.distance_to_point(Vec2::new(0.0, 1.1)) - 0.2236).abs() < 1e-4);
+        assert_eq!(wall.distance_to_point(Vec2::new(0.3, 0.0)), 0.0);
+    }
+
     proptest! {
+        /// The gap between two rectangles is the least distance between points of theirs:
+        /// no pair of sampled outline points is closer, and a corner of one lies at the
+        /// gap from the other.
+        #[test]
+        fn the_gap_is_the_least_distance_between_outlines(
+            ax in -0.5f64..0.5, ay in -0.5f64..0.5, ayaw in -3.2f64..3.2,
+            bx in -0.5f64..0.5, by in -0.5f64..0.5, byaw in -3.2f64..3.2,
+        ) {
+            let a = robot(ax, ay, ayaw);
+            let b = OrientedRect::new(Pose2::new(bx, by, byaw), 0.09, 0.06);
+            let gap = a.distance_to(&b);
+            prop_assert!((gap - b.distance_to(&a)).abs() < 1e-12);
+            prop_assert_eq!(gap == 0.0, a.penetrates(&b, 0.0));
+            let outline = |r: &OrientedRect| -> Vec<Vec2> {
+                r.edges()
+                    .iter()
+                    .flat_map(|e| (0..=20).map(move |k| e.a + (e.b - e.a) * (k as f64 / 20.0)))
+                    .collect()
+            };
+            if gap > 0.0 {
+                let (pa, pb) = (outline(&a), outline(&b));
+                for p in &pa {
+                    for q in &pb {
+                        prop_assert!(p.distance(*q) >= gap - 1e-9);
+                    }
+                }
+                // A corner of one is the gap away from the other.
+                let near = b.corners().iter().any(|c| a.distance_to_point(*c) <= gap + 1e-9)
+                    || a.corners().iter().any(|c| b.distance_to_point(*c) <= gap + 1e-9);
+                prop_assert!(near);
+            }
+        }
+
         /// Overlap is symmetric, and agrees with a dense point-sampling check whenever the
         /// sampled points clearly decide it.
         #[test]

@@ -195,6 +195,65 @@ impl FreeSpace {
         })
     }
 
+    /// The gap from the footprint at `pose` (not grown by the margin) to the nearest
+    /// obstacle, m, at most `cap_m`: 0 when it touches or overlaps one. Obstacles farther
+    /// than the cap from a piece's circumscribed circle are not measured.
+    pub fn pose_clearance_m(&self, pose: Pose2, cap_m: f64) -> f64 {
+        let mut least = cap_m;
+        for piece in self.footprint.rects_at(pose, 0.0) {
+            let centre = piece.pose.position();
+            for rect in &self.rects {
+                if rect.distance_to_point(centre) >= piece.circumradius_m() + least {
+                    continue;
+                }
+                least = least.min(piece.distance_to(&OrientedRect::from_rect(*rect)));
+                if least <= 0.0 {
+                    return 0.0;
+                }
+            }
+            for circle in &self.circles {
+                least =
+                    least.min((piece.distance_to_point(circle.center) - circle.radius_m).max(0.0));
+            }
+        }
+        least
+    }
+
+    /// The gap from the disc the footprint sweeps turning on the spot at `p` to the nearest
+    /// obstacle, m, at most `cap_m`: 0 when the disc touches or overlaps one.
+    pub fn turn_clearance_m(&self, p: Vec2, cap_m: f64) -> f64 {
+        (self.clearance_m(p) - self.footprint.sweep_radius_m()).clamp(0.0, cap_m)
+    }
+
+    /// The least clearance ([`Self::pose_clearance_m`] holding `yaw_rad`, or
+    /// [`Self::turn_clearance_m`] with `yaw_rad` `None`) at samples along the straight line
+    /// from `a` to `b` at most [`SAMPLE_STEP_M`] apart, m, at most `cap_m`. Every pose
+    /// between two samples is within half a step of one, so keeps at least this less
+    /// [`SAMPLE_STEP_M`]` / 2` ([`Self::segment_guaranteed_m`]).
+    pub fn segment_clearance_m(&self, a: Vec2, b: Vec2, yaw_rad: Option<f64>, cap_m: f64) -> f64 {
+        let steps = (a.distance(b) / SAMPLE_STEP_M).ceil().max(1.0) as usize;
+        let mut least = cap_m;
+        for k in 0..=steps {
+            let p = a + (b - a) * (k as f64 / steps as f64);
+            let here = match yaw_rad {
+                Some(yaw) => self.pose_clearance_m(Pose2::new(p.x, p.y, yaw), least),
+                None => self.turn_clearance_m(p, least),
+            };
+            least = least.min(here);
+            if least <= 0.0 {
+                break;
+            }
+        }
+        least
+    }
+
+    /// The clearance every pose of a straight line keeps whose samples keep
+    /// `sampled_m` ([`Self::segment_clearance_m`]), m: half a step less (negative: it may
+    /// touch).
+    pub fn segment_guaranteed_m(sampled_m: f64) -> f64 {
+        sampled_m - SAMPLE_STEP_M / 2.0
+    }
+
     /// The least distance straight ahead of `from`, along its heading and holding it, at
     /// which the footprint (grown by the margin) is free, m: a multiple of [`AHEAD_STEP_M`]
     /// up to `up_to_m` (0 when `from` itself is free), or `None` when no pose up to there is.
