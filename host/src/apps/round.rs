@@ -750,13 +750,13 @@ pub enum BenchProgress<'a> {
     Run(&'a RoundReport),
 }
 
-/// Every round with both policies over `seeds` (e.g. `11..=60`: tune on some seeds, report
-/// on others); `on_progress` hears each report. With `calibrated`, each seed's world is
-/// first calibrated ([`calibrate::beliefs`]) and both policies' robots believe the
-/// calibration.
+/// Every round with each of `policies` over `seeds` (e.g. `11..=60`: tune on some seeds,
+/// report on others); `on_progress` hears each report. With `calibrated`, each seed's world
+/// is first calibrated ([`calibrate::beliefs`]) and the robots believe the calibration.
 pub fn bench(
     config: &Config,
     seeds: std::ops::RangeInclusive<u64>,
+    policies: &[Policy],
     machine_delay_s: f64,
     calibrated: bool,
     mut on_progress: impl FnMut(BenchProgress<'_>),
@@ -778,7 +778,7 @@ pub fn bench(
         for seed in seeds.clone() {
             bounds.insert(seed, bound.seconds(round, round_parts(round, seed)?)?);
         }
-        for policy in Policy::ALL {
+        for &policy in policies {
             let mut row = BenchRow {
                 round,
                 policy,
@@ -954,7 +954,7 @@ mod tests {
     fn the_bench_sets_each_round_against_its_lower_bound_and_splits_its_time() {
         let config = Config::default().in_world(WorldProfile::Ideal);
         let mut reports = Vec::new();
-        let rows = bench(&config, 1..=1, 0.0, false, |progress| {
+        let rows = bench(&config, 1..=1, &Policy::ALL, 0.0, false, |progress| {
             if let BenchProgress::Run(report) = progress {
                 reports.push(report.clone());
             }

@@ -422,6 +422,9 @@ struct RoundsBenchArgs {
     /// policies with the calibrated configuration.
     #[arg(long)]
     calibrated: bool,
+    /// Only this policy (both by default): half the time when comparing settings of one.
+    #[arg(long, value_enum)]
+    policy: Option<Policy>,
 }
 
 impl BenchArgs {
@@ -1625,9 +1628,14 @@ fn rounds_bench_command(args: &RoundsBenchArgs) -> anyhow::Result<()> {
     let seeds = args.first_seed..=args.first_seed + args.bench.seeds.saturating_sub(1);
     println!("seeds {} to {}", seeds.start(), seeds.end());
     let mut refused = 0u32;
+    let policies: Vec<Policy> = match args.policy {
+        Some(policy) => vec![policy],
+        None => Policy::ALL.to_vec(),
+    };
     let rows = round::bench(
         &config,
         seeds.clone(),
+        &policies,
         args.machine_delay_s,
         args.calibrated,
         |progress| match progress {
