@@ -14,7 +14,7 @@ use crate::config::{Config, Policy as Driving};
 use crate::control::creep::{Creep, CreepLimits};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{ORIGINAL_APPROACH_M, Route, plan_leg, plan_original_route};
+use crate::control::route::{LegPlanner, ORIGINAL_APPROACH_M, Route, plan_original_route};
 use crate::field::Field;
 use crate::field::PartColor;
 use crate::field::geometry::{Pose2, Vec2};
@@ -22,8 +22,6 @@ use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
-use crate::planning::our_map::our_graph;
-use crate::planning::shortcuts::{Footprint, FreeSpace};
 use crate::planning::tasks::{self, MAX_PARTS, Model, PartState, Place, Policy, State};
 use crate::referee::snapshot::ServerSnapshot;
 
@@ -329,7 +327,10 @@ const ORIGINAL_CREEP_LIMIT_M: f64 = 0.08;
 pub struct RouteNavigator {
     config: Config,
     field: Field,
+    /// The original's graph (its routes, `plan_original_route`).
     map: RoadMap,
+    /// Our legs' planner (`None` for the original preset).
+    legs: Option<LegPlanner>,
     preset: Driving,
     follower: Box<dyn PathFollower>,
     dock: bool,
@@ -366,20 +367,16 @@ impl RouteNavigator {
     /// routes on its graph and `control::original`).
     pub fn new(config: &Config, preset: Driving) -> Self {
         // Ours docks where its own magnet meets the plate; the original at its fixed poses.
-        let (field, graph) = match preset {
+        let (field, legs) = match preset {
             Driving::Ours => {
-                let field = config.robot.field();
-                let graph = our_graph(&field, &Footprint::of_robot(&config.robot, true));
-                (field, graph)
+                let legs = LegPlanner::new(config);
+                (legs.field().clone(), Some(legs))
             }
-            Driving::Original => {
-                let field = Field::competition();
-                let graph = field.waypoints().clone();
-                (field, graph)
-            }
+            Driving::Original => (Field::competition(), None),
         };
         Self {
-            map: RoadMap::new(graph),
+            map: RoadMap::new(field.waypoints().clone()),
+            legs,
             follower: Box::new(Follower::new(config)),
             config: config.clone(),
             field,
@@ -448,8 +445,8 @@ impl Navigator for RouteNavigator {
         if dock {
             self.held_part_across_m = 0.0;
         }
-        let route = match self.preset {
-            Driving::Ours => {
+        let route = match &self.legs {
+            Some(legs) => {
                 // Carrying, aim the part at the slot's centre line, not the magnet.
                 let mut slot = slot;
                 if !dock {
@@ -457,24 +454,9 @@ impl Navigator for RouteNavigator {
                         slot.pick_pose
                             .compose(Pose2::new(0.0, -self.held_part_across_m, 0.0));
                 }
-                let footprint = Footprint::of_robot(&self.config.robot, !dock);
-                let space = FreeSpace::new(
-                    &self.field,
-                    &[],
-                    footprint,
-                    self.config.navigation.shortcut_margin_m,
-                );
-                plan_leg(
-                    &self.field,
-                    &self.map,
-                    &space,
-                    pose,
-                    &slot,
-                    &self.config.navigation,
-                    !dock,
-                )
+                legs.plan(pose, &slot, !dock)
             }
-            Driving::Original => {
+            None => {
                 self.follower = Box::new(
                     OriginalFollower::new(OriginalParams::default())
                         .with_start_location(self.last_goal),

@@ -23,13 +23,12 @@ use ratf_core::config::Config;
 use ratf_core::control::creep::{Creep, CreepLimits};
 use ratf_core::control::follower::{Follower, PathFollower, Status};
 use ratf_core::control::original::{OriginalFollower, OriginalParams};
-use ratf_core::control::route::{ORIGINAL_APPROACH_M, Route, plan_original_route, plan_route};
+use ratf_core::control::route::{LegPlanner, ORIGINAL_APPROACH_M, Route, plan_original_route};
 use ratf_core::drivers::imu::ImuError;
 use ratf_core::field::PartColor;
 use ratf_core::field::geometry::{Pose2, Segment, wrap_angle};
-use ratf_core::field::{Field, Rect, SlotKind, WaypointId};
+use ratf_core::field::{Field, SlotKind, WaypointId};
 use ratf_core::planning::graph::{PlanError, RoadMap};
-use ratf_core::planning::shortcuts::{Footprint, FreeSpace};
 use ratf_sim::harness::SimulatedRobot;
 use ratf_sim::world::{Collision, Scenario};
 
@@ -221,32 +220,20 @@ fn start_pose(field: &Field, place: Place) -> Result<Pose2, NavBenchError> {
     }
 }
 
-/// The route each preset drives for `trip`.
+/// The route each preset drives for `trip`: ours as our navigator plans it
+/// ([`LegPlanner`], empty: every trip ends docking on a part), the original's on its graph.
 pub fn route_for(config: &Config, preset: Preset, trip: Trip) -> Result<Route, NavBenchError> {
     let field = Field::competition();
-    let map = RoadMap::new(field.waypoints().clone());
     let start = start_pose(&field, trip.from)?;
     let goal = field
         .slot_for_waypoint(WaypointId(trip.to))
         .ok_or(NavBenchError::NoSlot(trip.to))?;
     let route = match preset {
-        Preset::Ours => {
-            let parts: Vec<Rect> = field
-                .incoming_slot(0)
-                .into_iter()
-                .chain((1..4).filter_map(|i| field.incoming_slot(i)))
-                .map(|s| s.box_rect())
-                .collect();
-            let footprint = Footprint::of_robot(&config.robot, false);
-            let space = FreeSpace::new(
-                &field,
-                &parts,
-                footprint,
-                config.navigation.shortcut_margin_m,
-            );
-            plan_route(&field, &map, &space, start, goal, &config.navigation)
+        Preset::Ours => LegPlanner::new(config).plan(start, goal, false),
+        Preset::Original => {
+            let map = RoadMap::new(field.waypoints().clone());
+            plan_original_route(&map, start, goal, ORIGINAL_APPROACH_M)
         }
-        Preset::Original => plan_original_route(&map, start, goal, ORIGINAL_APPROACH_M),
     };
     route.map_err(|e| NavBenchError::Plan(trip, e))
 }
@@ -495,7 +482,8 @@ mod tests {
     }
 
     use ratf_core::control::route::turn_window;
-    use ratf_core::field::Vec2;
+    use ratf_core::field::{Rect, Vec2};
+    use ratf_core::planning::shortcuts::{Footprint, FreeSpace};
 
     fn bare_space(config: &Config, parts: &[Rect]) -> FreeSpace {
         let footprint = Footprint::of_robot(&config.robot, false);

@@ -112,6 +112,11 @@ pub struct NavigationConfig {
     /// round, collisions 1 → 0), although `bench navigation`'s single trips gain almost
     /// nothing (3.15 → 3.13 s), which is why it was off before.
     pub shortcuts: bool,
+    /// Plan our legs through free space for the whole body with its heading, the part it
+    /// carries and its turn (`planning::free_routes`), rather than on the waypoint graph
+    /// with shortcuts, which stays the fallback wherever no free route is found (a start
+    /// inside what the robot believes is an obstacle).
+    pub free_routes: bool,
     /// Extra clearance around the robot's swept footprint for shortcuts, m. 0.02:
     /// assumption, covers the estimate's error and the cross-track error.
     pub shortcut_margin_m: f64,
@@ -138,6 +143,7 @@ impl Default for NavigationConfig {
             rotate_after_m: 0.10,
             align_before_m: 0.08,
             shortcuts: true,
+            free_routes: true,
             shortcut_margin_m: 0.02,
         }
     }

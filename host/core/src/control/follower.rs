@@ -327,8 +327,9 @@ impl PathFollower for Follower {
         // Inside the turn window (where the robot can turn on the spot) the heading aims
         // `TURN_LEAD_M` ahead of the plan, so a short window is turned at the full rate;
         // before it, it holds the plan (the start heading).
+        let in_window = at.s_m >= heading.from_m;
         let yaw_plan = heading.yaw_at(at.s_m);
-        let yaw_target = if at.s_m >= heading.from_m {
+        let yaw_target = if in_window {
             heading.yaw_at(at.s_m + TURN_LEAD_M)
         } else {
             yaw_plan
@@ -338,7 +339,7 @@ impl PathFollower for Follower {
         // slow down so it finishes turning where there is room.
         // Inside it, the heading may trail the plan by up to the lead's length of plan, less
         // towards the window's end, where it must be on the goal heading.
-        let trail_m = if at.s_m >= heading.from_m {
+        let trail_m = if in_window {
             TURN_LEAD_M.min((heading.to_m - at.s_m).max(0.0))
         } else {
             0.0
@@ -366,7 +367,18 @@ impl PathFollower for Follower {
         } else {
             1.0
         };
-        let limit = profile.speed_limit_m_s(at.s_m) * heading_factor * cross_factor;
+        let mut limit = profile.speed_limit_m_s(at.s_m) * heading_factor * cross_factor;
+        // Towards the corner into a slot a carried part enters, brake for it from where the
+        // commands in flight take the robot, not from where the last one does: braking
+        // from speed, the wheels trail their commands and the robot runs on past the
+        // corner ([`InFlight`]).
+        if let Some(zone) = profile.slot_corner()
+            && at.s_m <= zone.to_m
+        {
+            let coasting_to = pose.position() + self.in_flight.displacement();
+            let coasting_s = route.project(at.segment, coasting_to).s_m;
+            limit = limit.min(profile.zone_limit_m_s(&zone, coasting_s));
+        }
         let mut along = limit.min(self.speed_m_s + c.max_accel_m_s2 * dt_s);
         if last_segment {
             // Stop on the goal: the braking curve on the predicted distance left, then a
@@ -609,6 +621,28 @@ mod tests {
         );
         in_flight.clear();
         assert_eq!(in_flight.displacement(), Vec2::ZERO);
+    }
+
+    /// Running along the row towards the corner into the slot, carrying a part: the speed
+    /// cap before the corner is met from where the commands in flight take the robot.
+    #[test]
+    fn towards_the_slot_corner_the_robot_brakes_from_where_the_commands_in_flight_take_it() {
+        let down = -std::f64::consts::FRAC_PI_2;
+        // 0.5 m/s along the row, 0.13 m before the corner into the slot (x = 0.3).
+        let speed = |route: Route| {
+            let mut f = Follower::new(&Config::default());
+            f.start_moving(route, Vec2::new(0.5, 0.0));
+            let twist = f.update(1_000, Pose2::new(0.17, 0.0, down), false).twist;
+            twist.vx_m_s.hypot(twist.vy_m_s)
+        };
+        // Carrying a part in: the commands in flight (0.18 s of them here) take the robot
+        // 9 cm on, and it brakes from there for the cap 1 cm before the corner:
+        // √(0.08² + 2·2·0.03) = 0.356 m/s. By its last command alone (0.12 s: 6 cm on) it
+        // would ask for 0.50 m/s.
+        let carrying = speed(into_a_slot(true));
+        assert!((carrying - 0.3556).abs() < 0.002, "{carrying}");
+        // Empty, no part enters the slot: no such cap.
+        assert!(speed(into_a_slot(false)) > 0.45);
     }
 
     /// On the slot's line in its estimate but still running on along the row in truth (the

@@ -26,6 +26,21 @@ pub struct SpeedZone {
     pub max_m_s: f64,
 }
 
+impl SpeedZone {
+    /// The highest speed at arc length `s_m` from which a robot braking at `decel_m_s2`
+    /// keeps this cap: the cap inside the zone, the braking curve before it, infinite
+    /// beyond it.
+    pub fn limit_at(&self, s_m: f64, decel_m_s2: f64) -> f64 {
+        if s_m > self.to_m {
+            f64::INFINITY
+        } else if s_m >= self.from_m {
+            self.max_m_s
+        } else {
+            (self.max_m_s * self.max_m_s + 2.0 * decel_m_s2 * (self.from_m - s_m)).sqrt()
+        }
+    }
+}
+
 /// The heading reference along the route: the start heading held for the first
 /// `rotate_after_m`, then turned at a constant rate per metre so that the goal heading is
 /// reached `align_before_m` before the end (the base rotates while it travels).
@@ -124,6 +139,9 @@ impl WheelBudget {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
     zones: Vec<SpeedZone>,
+    /// The cap on the corner into a slot a carried part enters right after it
+    /// ([`SLOT_CORNER_M_S`]), also among `zones`.
+    slot_corner: Option<SpeedZone>,
     max_speed_m_s: f64,
     decel_m_s2: f64,
 }
@@ -220,9 +238,8 @@ impl Profile {
                 max_m_s: v,
             });
         }
-        if let Some(zone) = slot_corner_zone(route) {
-            zones.push(zone);
-        }
+        let slot_corner = slot_corner_zone(route);
+        zones.extend(slot_corner);
         if heading.turn_rad.abs() > 1e-9 {
             // Keep a fifth of the yaw-rate limit for the heading feedback. A (nearly) zero
             // window still lets the robot creep onto it; the follower then waits for the
@@ -245,7 +262,13 @@ impl Profile {
             .collect();
         for k in 0..stretches {
             let (from_m, to_m) = (boundary_m(k), boundary_m(k + 1));
-            let cap = at_boundary[k].min(at_boundary[k + 1]);
+            // Never below the turn window's own floor: a window of a few millimetres asks
+            // for a turn no speed can share the wheels with, and the robot crawled up to it
+            // at millimetres a second (a 1.4 mm window for a quarter turn: 4 mm/s for 5 s);
+            // the follower waits for the heading instead (it slows while the heading lags).
+            let cap = at_boundary[k]
+                .min(at_boundary[k + 1])
+                .max(MIN_TURN_SPEED_M_S);
             if cap < config.max_speed_m_s {
                 zones.push(SpeedZone {
                     from_m,
@@ -268,9 +291,22 @@ impl Profile {
         });
         Self {
             zones,
+            slot_corner,
             max_speed_m_s: config.max_speed_m_s,
             decel_m_s2: config.max_decel_m_s2,
         }
+    }
+
+    /// The cap on the corner into a slot a carried part enters right after it, if the
+    /// route has one ([`SLOT_CORNER_M_S`]).
+    pub fn slot_corner(&self) -> Option<SpeedZone> {
+        self.slot_corner
+    }
+
+    /// The highest speed at arc length `s_m` from which the robot brakes to `zone`'s cap
+    /// at the deceleration limit (its cap inside it, infinite beyond it).
+    pub fn zone_limit_m_s(&self, zone: &SpeedZone, s_m: f64) -> f64 {
+        zone.limit_at(s_m, self.decel_m_s2)
     }
 
     /// The zones (for inspection).
@@ -283,15 +319,7 @@ impl Profile {
     pub fn speed_limit_m_s(&self, s_m: f64) -> f64 {
         self.zones
             .iter()
-            .map(|z| {
-                if s_m > z.to_m {
-                    f64::INFINITY
-                } else if s_m >= z.from_m {
-                    z.max_m_s
-                } else {
-                    (z.max_m_s * z.max_m_s + 2.0 * self.decel_m_s2 * (z.from_m - s_m)).sqrt()
-                }
-            })
+            .map(|z| z.limit_at(s_m, self.decel_m_s2))
             .fold(self.max_speed_m_s, f64::min)
     }
 }
@@ -304,6 +332,28 @@ mod tests {
 
     fn wheels() -> WheelBudget {
         WheelBudget::new(&RobotConfig::default())
+    }
+
+    #[test]
+    fn a_turn_window_of_millimetres_leaves_the_robot_its_turn_windows_floor() {
+        // A quarter turn planned over 1.4 mm (a free-space route's window at a tight spot):
+        // the wheels cannot share it with any speed, and the robot crawled up to it at
+        // 4 mm/s; the floor keeps MIN_TURN_SPEED_M_S, the follower waiting for the heading.
+        let config = NavigationConfig::default();
+        let route = Route::new(
+            vec![Vec2::new(0.0, 0.0), Vec2::new(0.5, 0.0)],
+            0.0,
+            FRAC_PI_2,
+            0.0,
+        )
+        .unwrap()
+        .with_turn_window(0.2, 0.2014);
+        let heading = HeadingPlan::new(&route, &config);
+        let profile = Profile::new(&route, &heading, &config, &wheels());
+        let inside = profile.speed_limit_m_s(0.2007);
+        assert!((inside - MIN_TURN_SPEED_M_S).abs() < 1e-12, "{inside}");
+        // The wheels alone would allow about 4 mm/s there.
+        assert!(wheels().speed_limit_m_s(&route, &heading, 0.2007) < 0.005);
     }
 
     #[test]

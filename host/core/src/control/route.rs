@@ -1,11 +1,13 @@
 //! A route: the polyline a follower drives, with arc lengths, the heading to reach and an
 //! optional final docking segment; and how routes to a slot are planned.
 
-use crate::config::NavigationConfig;
+use crate::config::{Config, NavigationConfig};
 use crate::field::geometry::{Pose2, Segment, Vec2, wrap_angle};
 use crate::field::{Field, Slot};
+use crate::planning::free_routes::{Departure, FreePath, FreeRoutes};
 use crate::planning::graph::{PlanError, RoadMap, merge_collinear};
-use crate::planning::shortcuts::FreeSpace;
+use crate::planning::our_map::our_graph;
+use crate::planning::shortcuts::{Footprint, FreeSpace, SAMPLE_STEP_M};
 
 /// Tolerance for merging collinear route points, m (1 mm: far below the follower's error).
 pub const MERGE_TOLERANCE_M: f64 = 0.001;
@@ -265,6 +267,30 @@ fn slot_to_leave(field: &Field, pose: Pose2) -> Option<&Slot> {
     })
 }
 
+/// Where a robot standing in a slot's approach at `pose` ([`slot_to_leave`]) first drives
+/// to: [`SLOT_EXIT_M`] straight out along the slot's face normal.
+fn slot_exit(field: &Field, pose: Pose2) -> Option<Vec2> {
+    slot_to_leave(field, pose).map(|docked| {
+        docked.pick_pose.position() + Vec2::from_angle(docked.face_normal_rad) * SLOT_EXIT_M
+    })
+}
+
+/// The route through `points` from `start`'s heading to `slot`'s pick heading, with the
+/// configured docking length (`None` where the points make no route, [`Route::new`]).
+fn leg_route(
+    points: Vec<Vec2>,
+    start: Pose2,
+    slot: &Slot,
+    config: &NavigationConfig,
+) -> Option<Route> {
+    Route::new(
+        points,
+        start.yaw_rad,
+        slot.pick_pose.yaw_rad,
+        config.dock_length_m,
+    )
+}
+
 /// Heading error within which a robot in a slot's approach counts as facing it, rad (10°).
 const IN_SLOT_MAX_YAW_RAD: f64 = 0.175;
 
@@ -363,9 +389,7 @@ pub fn plan_route(
 ) -> Result<Route, PlanError> {
     let mut points = vec![start.position()];
     // Standing in a slot, first straight out of it (never sideways between its dividers).
-    if let Some(docked) = slot_to_leave(field, start) {
-        let exit =
-            docked.pick_pose.position() + Vec2::from_angle(docked.face_normal_rad) * SLOT_EXIT_M;
+    if let Some(exit) = slot_exit(field, start) {
         points.push(exit);
     }
     let leave_from = points.last().copied().unwrap_or(start.position());
@@ -381,12 +405,7 @@ pub fn plan_route(
         points = merge_collinear(&cut, MERGE_TOLERANCE_M);
     }
     let windowed = |points: Vec<Vec2>| {
-        let route = Route::new(
-            points,
-            start.yaw_rad,
-            slot.pick_pose.yaw_rad,
-            config.dock_length_m,
-        )?;
+        let route = leg_route(points, start, slot, config)?;
         let (from_m, to_m) = turn_window(&route, space, config);
         Some(route.with_turn_window(from_m, to_m))
     };
@@ -422,11 +441,57 @@ pub const OVERSHOOT_ALLOWANCE_M: f64 = 0.005;
 /// Lowest corner cap, m/s (the follower still creeps round).
 const MIN_CORNER_CAP_M_S: f64 = 0.05;
 
+/// How much of the follower's turning early a corner's inside must leave room for, as a
+/// fraction of the speed times `navigation.lag_compensation_s` times the sine of half the
+/// turn: the follower places itself that far ahead, so it turns onto the next segment
+/// early and cuts the corner. 1: traced in round 2 of the realistic world's seeds 61 and
+/// 101 (calibrated, free-space routes), a 45° corner into the outgoing row under machine
+/// B taken at 0.43–0.44 m/s left the robot 15–19 mm inside the row's line (this model:
+/// 20 mm) still 3–5 cm after the corner, where the body touched the machine's divider.
+pub const CORNER_CUT_SHARE: f64 = 1.0;
+
+/// How far along the next segment the cut is checked, in distances the cross-track
+/// correction takes to shrink it by e (speed over `navigation.cross_track_gain_per_s`):
+/// after 3 it is a twentieth of itself.
+const CUT_DECAY_LENGTHS: f64 = 3.0;
+
+/// The largest `x` in `[0, needed]` at which `free(x)` holds, for a `free` that holds up to
+/// some point (bisection; 0 if it does not hold at 0), or `None` if it holds at `needed`:
+/// the room short of a shift, or the fastest speed whose error stays free.
+fn room_short_of(needed: f64, free: impl Fn(f64) -> bool) -> Option<f64> {
+    if free(needed) {
+        return None;
+    }
+    let (mut lo, mut hi) = (0.0, needed);
+    if !free(0.0) {
+        hi = 0.0;
+    }
+    for _ in 0..20 {
+        let mid = (lo + hi) / 2.0;
+        if free(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo)
+}
+
 /// Caps the speed of every corner (docking approach excluded) past which the robot would
-/// touch an obstacle if it overshot across the next segment: the overshoot is the speed
-/// times [`CORNER_OVERSHOOT_S`] along the incoming direction's component across the
-/// outgoing segment; the room is how far the next segment's held-heading stretches can
-/// move that way and stay free (no margin), less [`OVERSHOOT_ALLOWANCE_M`].
+/// touch an obstacle if it overshot across the next segment or cut the corner, standing
+/// along the next segment as it will (holding a heading, or anyhow inside the turn window:
+/// its swept disc):
+/// - the overshoot is the speed times [`CORNER_OVERSHOOT_S`] along the incoming
+///   direction's component across the outgoing segment; the room is how far the next
+///   segment's poses can move that way and stay free (no margin);
+/// - the cut is the speed times `lag_compensation_s` times the sine of half the turn
+///   ([`CORNER_CUT_SHARE`]), the other way across the outgoing segment: the follower turns
+///   early and comes onto the next segment from the inside, the error decaying as the
+///   cross-track correction takes it back (`cross_track_gain_per_s`); the cap is the
+///   fastest speed at which the next segment's poses, each moved across by its cut, stay
+///   free ([`CUT_DECAY_LENGTHS`]);
+///
+/// each with [`OVERSHOOT_ALLOWANCE_M`] to spare.
 fn cap_tight_corners(mut route: Route, space: &FreeSpace, config: &NavigationConfig) -> Route {
     let n = route.points().len();
     for i in 1..n.saturating_sub(2) {
@@ -436,39 +501,62 @@ fn cap_tight_corners(mut route: Route, space: &FreeSpace, config: &NavigationCon
         if sine < 1e-6 {
             continue;
         }
+        let turn_rad = route.turn_angle_rad(i);
         let corner_m_s = crate::control::profile::corner_speed_m_s(
-            route.turn_angle_rad(i),
+            turn_rad,
             config.max_accel_m_s2.min(config.max_decel_m_s2),
             config.corner_blend_m,
         )
         .min(config.max_speed_m_s);
-        let stretches = held_stretches(&route, i);
+        let mut cap = corner_m_s;
+        let stretches = stance_stretches(&route, i);
         let free_shifted = |shift_m: f64| {
             let by = across * (shift_m / sine);
-            stretches
-                .iter()
-                .all(|&(a, b, yaw)| space.segment_is_free_with_margin(a + by, b + by, &[yaw], 0.0))
+            stretches.iter().all(|&(a, b, yaw)| {
+                let room = space.segment_clearance_m(a + by, b + by, yaw, 1.0);
+                FreeSpace::segment_guaranteed_m(room) > 0.0
+            })
         };
-        let needed_m = corner_m_s * sine * CORNER_OVERSHOOT_S + OVERSHOOT_ALLOWANCE_M;
-        if stretches.is_empty() || free_shifted(needed_m) {
-            continue;
+        let overshoot_m = corner_m_s * sine * CORNER_OVERSHOOT_S + OVERSHOOT_ALLOWANCE_M;
+        if !stretches.is_empty()
+            && let Some(room) = room_short_of(overshoot_m, free_shifted)
+        {
+            cap = cap.min((room - OVERSHOOT_ALLOWANCE_M) / (sine * CORNER_OVERSHOOT_S));
         }
-        // The room: the largest shift still free (bisection; 0 if none is).
-        let (mut lo, mut hi) = (0.0, needed_m);
-        if !free_shifted(0.0) {
-            hi = 0.0;
+        // The cut at speed v: inwards across the next segment by v · lag · sin(φ/2) at the
+        // corner, decaying as the cross-track correction takes it back.
+        let cut_per_m_s = CORNER_CUT_SHARE * config.lag_compensation_s * (turn_rad / 2.0).sin();
+        let gain = config.cross_track_gain_per_s;
+        let cut_free = |v: f64| {
+            let reach_m = CUT_DECAY_LENGTHS * v / gain;
+            stretches.iter().all(|&(a, b, yaw)| {
+                let from_corner = |p: Vec2| p.distance(route.points()[i]);
+                let steps = (a.distance(b) / SAMPLE_STEP_M).ceil().max(1.0) as usize;
+                (0..=steps)
+                    .map(|k| a + (b - a) * (k as f64 / steps as f64))
+                    .take_while(|&p| from_corner(p) <= reach_m)
+                    .all(|p| {
+                        let decay = (-from_corner(p) * gain / v.max(1e-6)).exp();
+                        let shift = OVERSHOOT_ALLOWANCE_M + v * cut_per_m_s * decay;
+                        let q = p - across * (shift / sine);
+                        let room = match yaw {
+                            Some(yaw) => space.pose_clearance_m(Pose2::new(q.x, q.y, yaw), 1.0),
+                            None => space.turn_clearance_m(q, 1.0),
+                        };
+                        room > SAMPLE_STEP_M / 2.0
+                    })
+            })
+        };
+        // The fastest speed whose cut stays free.
+        if !stretches.is_empty()
+            && cut_per_m_s > 0.0
+            && let Some(speed) = room_short_of(cap, cut_free)
+        {
+            cap = speed;
         }
-        for _ in 0..20 {
-            let mid = (lo + hi) / 2.0;
-            if free_shifted(mid) {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
+        if cap < corner_m_s {
+            route = route.with_corner_cap(i, cap.clamp(MIN_CORNER_CAP_M_S, corner_m_s));
         }
-        let cap = ((lo - OVERSHOOT_ALLOWANCE_M) / (sine * CORNER_OVERSHOOT_S))
-            .clamp(MIN_CORNER_CAP_M_S, corner_m_s);
-        route = route.with_corner_cap(i, cap);
     }
     route
 }
@@ -481,10 +569,10 @@ fn cap_tight_corners(mut route: Route, space: &FreeSpace, config: &NavigationCon
 /// [`crate::mission::LET_GO_SHORT_OF_DROP_M`] short of the pose still lands in its slot.
 pub const DROP_SHORT_M: f64 = 0.005;
 
-/// Our route for one leg to `slot`: to pick its part (`carrying` false: the docking approach
-/// that ends on the switch), or carrying a part into it ([`Route::carrying_part_in`]),
-/// ending [`DROP_SHORT_M`] short of the pick pose. The navigator and the task planner's
-/// route times both plan their legs here.
+/// Our route for one leg to `slot` on our road map: to pick its part (`carrying` false:
+/// the docking approach that ends on the switch), or carrying a part into it
+/// ([`Route::carrying_part_in`]), ending [`DROP_SHORT_M`] short of the pick pose.
+/// [`LegPlanner`] plans through free space first and falls back on this.
 pub fn plan_leg(
     field: &Field,
     map: &RoadMap,
@@ -497,36 +585,174 @@ pub fn plan_leg(
     if !carrying {
         return plan_route(field, map, space, start, slot, config);
     }
+    plan_route(field, map, space, start, &drop_slot(slot), config).map(Route::carrying_part_in)
+}
+
+/// How our robot plans its legs: through free space ([`crate::planning::free_routes`],
+/// with `navigation.free_routes`) wherever that finds a route, else on our road map
+/// ([`plan_route`]: the waypoint graph with shortcuts). The navigator and the task
+/// planner's route times both plan here, so the planner's times are those of the routes
+/// the robot drives.
+#[derive(Clone, Debug)]
+pub struct LegPlanner {
+    field: Field,
+    map: RoadMap,
+    config: NavigationConfig,
+    /// The free space of the robot empty and carrying a part, with their free-space
+    /// planners (`None` without `navigation.free_routes`).
+    empty: (FreeSpace, Option<FreeRoutes>),
+    carrying: (FreeSpace, Option<FreeRoutes>),
+}
+
+impl LegPlanner {
+    /// The planner for our robot of `config` on its field ([`crate::config::RobotConfig::field`]).
+    pub fn new(config: &Config) -> Self {
+        let field = config.robot.field();
+        let map = RoadMap::new(our_graph(&field, &Footprint::of_robot(&config.robot, true)));
+        let spaces = |carrying: bool| {
+            let space = FreeSpace::new(
+                &field,
+                &[],
+                Footprint::of_robot(&config.robot, carrying),
+                config.navigation.shortcut_margin_m,
+            );
+            let free = config
+                .navigation
+                .free_routes
+                .then(|| FreeRoutes::new(&field, space.clone()));
+            (space, free)
+        };
+        Self {
+            empty: spaces(false),
+            carrying: spaces(true),
+            field,
+            map,
+            config: config.navigation.clone(),
+        }
+    }
+
+    /// The field it plans on.
+    pub fn field(&self) -> &Field {
+        &self.field
+    }
+
+    /// Our route from `start` to `slot`: to pick its part, or `carrying` one into it
+    /// ([`plan_leg`]'s ends: the docking approach, or [`DROP_SHORT_M`] short of the pick
+    /// pose).
+    pub fn plan(&self, start: Pose2, slot: &Slot, carrying: bool) -> Result<Route, PlanError> {
+        self.plan_many(start, &[*slot], carrying).remove(0)
+    }
+
+    /// Our routes from `start` to each of `slots`, all to pick or all `carrying` a part in
+    /// (one free-space search for all).
+    pub fn plan_many(
+        &self,
+        start: Pose2,
+        slots: &[Slot],
+        carrying: bool,
+    ) -> Vec<Result<Route, PlanError>> {
+        let (space, free) = if carrying {
+            &self.carrying
+        } else {
+            &self.empty
+        };
+        let goals: Vec<Slot> = slots
+            .iter()
+            .map(|slot| if carrying { drop_slot(slot) } else { *slot })
+            .collect();
+        let mut free_routes = match free {
+            Some(free) => free_routes(free, &self.field, start, &goals, &self.config),
+            None => vec![None; goals.len()],
+        };
+        goals
+            .iter()
+            .zip(free_routes.iter_mut())
+            .map(|(goal, free)| {
+                let route = match free.take() {
+                    Some(route) => Ok(cap_tight_corners(route, space, &self.config)),
+                    None => plan_route(&self.field, &self.map, space, start, goal, &self.config),
+                };
+                if carrying {
+                    route.map(Route::carrying_part_in)
+                } else {
+                    route
+                }
+            })
+            .collect()
+    }
+}
+
+/// `slot` as a drop aims at it: its pick pose moved [`DROP_SHORT_M`] out of the slot.
+fn drop_slot(slot: &Slot) -> Slot {
     let mut short = *slot;
     short.pick_pose = slot.pick_pose.compose(Pose2::new(-DROP_SHORT_M, 0.0, 0.0));
-    plan_route(field, map, space, start, &short, config).map(Route::carrying_part_in)
+    short
+}
+
+/// Free-space routes from `start` to the pick pose of each of `slots`
+/// ([`crate::planning::free_routes`]): straight out of the slot the robot stands in, if
+/// any ([`SLOT_EXIT_M`]), through free space to [`SLOT_EXIT_M`] in front of the goal's
+/// pick pose, arriving with its heading, and straight in, the last `dock_length_m` the
+/// docking approach. The robot turns where the free path says, its end
+/// [`TURN_END_INSET_M`] earlier (the heading lags its plan), the turn widened only
+/// `rotate_after_m` from the start and `align_before_m` from the end. `None` for a slot no
+/// free path reaches.
+fn free_routes(
+    free: &FreeRoutes,
+    field: &Field,
+    start: Pose2,
+    slots: &[Slot],
+    config: &NavigationConfig,
+) -> Vec<Option<Route>> {
+    let departure = Departure {
+        pose: start,
+        lead_out: slot_exit(field, start),
+    };
+    let arrivals: Vec<Pose2> = slots.iter().map(|slot| slot.pick_pose).collect();
+    let keep_off_m = (config.rotate_after_m, config.align_before_m);
+    free.paths(departure, &arrivals, SLOT_EXIT_M, keep_off_m)
+        .into_iter()
+        .zip(slots)
+        .map(|(path, slot)| {
+            let FreePath { points, turn_m } = path?;
+            let points = merge_collinear(&dedup(points), MERGE_TOLERANCE_M);
+            let route = leg_route(points, start, slot, config)?;
+            // Without a turn the robot holds its heading all the way.
+            let (a, b) = turn_m.unwrap_or((route.length_m(), route.length_m()));
+            Some(route.with_turn_window(a, (b - TURN_END_INSET_M).max(a + (b - a) / 2.0)))
+        })
+        .collect()
 }
 
 /// Rounds of [`square_off_blocked_segment`] per route (each fixes one segment).
 const MAX_SQUARING_ROUNDS: usize = 3;
 
+/// How the robot stands along segment `index` of `route`, stretch by stretch: holding the
+/// start heading before the turn window (`Some(yaw)`), free to turn inside it (`None`),
+/// holding the goal heading after it.
+fn stance_stretches(route: &Route, index: usize) -> Vec<(Vec2, Vec2, Option<f64>)> {
+    let (s0, s1) = (route.s_at_point_m(index), route.s_at_point_m(index + 1));
+    let (from_m, to_m) = route.turn_window_m().unwrap_or((0.0, route.length_m()));
+    let mut stretches = Vec::new();
+    let mut add = |a: f64, b: f64, yaw: Option<f64>| {
+        if b > a {
+            stretches.push((route.point_at(a), route.point_at(b), yaw));
+        }
+    };
+    add(s0, s1.min(from_m), Some(route.start_yaw_rad()));
+    add(s0.max(from_m), s1.min(to_m), None);
+    add(s0.max(to_m), s1, Some(route.goal().yaw_rad));
+    stretches
+}
+
 /// The headings the robot holds on the part of segment `index` of `route` outside its turn
 /// window, with the stretch each applies to: the start heading before the window, the goal
 /// heading after it.
 fn held_stretches(route: &Route, index: usize) -> Vec<(Vec2, Vec2, f64)> {
-    let (s0, s1) = (route.s_at_point_m(index), route.s_at_point_m(index + 1));
-    let (from_m, to_m) = route.turn_window_m().unwrap_or((0.0, route.length_m()));
-    let mut stretches = Vec::new();
-    if s0 < from_m {
-        stretches.push((
-            route.point_at(s0),
-            route.point_at(s1.min(from_m)),
-            route.start_yaw_rad(),
-        ));
-    }
-    if s1 > to_m {
-        stretches.push((
-            route.point_at(s0.max(to_m)),
-            route.point_at(s1),
-            route.goal().yaw_rad,
-        ));
-    }
-    stretches
+    stance_stretches(route, index)
+        .into_iter()
+        .filter_map(|(a, b, yaw)| yaw.map(|yaw| (a, b, yaw)))
+        .collect()
 }
 
 /// A graph edge may be diagonal while the robot holds a heading square to the field; its
@@ -617,6 +843,7 @@ mod tests {
     use super::*;
     use crate::field::SlotKind;
     use crate::field::WaypointGraph;
+    use crate::field::geometry::Rect;
     use crate::field::waypoints::WaypointId;
     use crate::planning::shortcuts::Footprint;
 
@@ -731,27 +958,15 @@ mod tests {
         assert_eq!(corner(&carry, Vec2::new(0.0, 0.255)), f64::INFINITY);
     }
 
-    #[test]
-    fn the_held_headings_keep_the_body_off_every_obstacle_between_any_two_slots() {
-        // Regression: from machine B's input row to its output 55 the graph's diagonal edge
-        // 4 → 30, driven at the goal heading 180°, grazed a divider of machine B.
-        let field = Field::competition();
-        let map = RoadMap::new(field.waypoints().clone());
-        let config = NavigationConfig::default();
-        let mut checked = 0;
+    /// Every leg the rules make the robot drive between two slots of `field`: (carrying,
+    /// from, to). Carrying, it comes from a pick slot and goes to a drop slot; empty, the
+    /// other way round; out of a machine it carries from A (at −x) to B's input (at +x) or
+    /// the outgoing warehouse, from B only to the outgoing.
+    fn legs_the_rules_allow(field: &Field) -> Vec<(bool, Slot, Slot)> {
+        let is_drop = |s: &Slot| matches!(s.kind, SlotKind::Outgoing | SlotKind::MachineInput);
+        let mut legs = Vec::new();
         for carrying in [false, true] {
-            let footprint = Footprint::centred(0.30, 0.30, carrying);
-            let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
-            // Carrying, the robot comes from a pick slot and goes to a drop slot; empty,
-            // the other way round.
-            let is_drop = |s: &Slot| matches!(s.kind, SlotKind::Outgoing | SlotKind::MachineInput);
             for from in field.slots().filter(|s| is_drop(s) != carrying) {
-                // Where the robot stands after backing out of `from`.
-                let normal = Vec2::from_angle(from.face_normal_rad);
-                let p = from.pick_pose.position() + normal * 0.08;
-                let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad);
-                // What the rules make the robot carry out of a machine: from A (at −x) to
-                // B's input (at +x) or the outgoing warehouse; from B only to the outgoing.
                 let allowed = |to: &&Slot| {
                     let out_of_machine = carrying && from.kind == SlotKind::MachineOutput;
                     is_drop(to) == carrying
@@ -760,22 +975,174 @@ mod tests {
                             || (from.box_center.x < 0.0 && to.box_center.x > 0.0))
                 };
                 for to in field.slots().filter(allowed) {
-                    let route = plan_route(&field, &map, &space, start, to, &config).unwrap();
-                    for i in 0..route.points().len() - 2 {
-                        for (a, b, yaw) in held_stretches(&route, i) {
-                            assert!(
-                                space.segment_is_free_with_margin(a, b, &[yaw], 0.0),
-                                "{} → {} (carrying: {carrying}): segment {i} {a:?} → {b:?} at {yaw}",
-                                from.waypoint,
-                                to.waypoint
-                            );
-                            checked += 1;
-                        }
-                    }
+                    legs.push((carrying, *from, *to));
+                }
+            }
+        }
+        legs
+    }
+
+    #[test]
+    fn a_corner_whose_inside_lacks_room_for_the_cut_is_capped() {
+        // A 90° left turn at (0.5, 0) onto x = 0.5, holding heading 0; the follower turns
+        // early and comes onto the next segment from its left.
+        let route = || {
+            Route::new(
+                vec![
+                    Vec2::new(0.0, 0.0),
+                    Vec2::new(0.5, 0.0),
+                    Vec2::new(0.5, 0.5),
+                    Vec2::new(0.5, 0.6),
+                ],
+                0.0,
+                0.0,
+                0.0,
+            )
+            .unwrap()
+            // Holding its heading all the way.
+            .with_turn_window(0.6, 0.6)
+        };
+        let config = NavigationConfig::default();
+        let footprint = Footprint::centred(0.30, 0.30, false);
+        let open = FreeSpace::with_walls(Vec::new(), footprint, config.shortcut_margin_m);
+        let uncapped = cap_tight_corners(route(), &open, &config);
+        assert_eq!(uncapped.corner_cap_m_s(1), f64::INFINITY);
+        // A wall 15 mm left of the body along the next segment from 1 cm past the corner.
+        // The cut at speed v is 5 mm + v × 0.12 s × sin 45° there, decaying over v / 5 per
+        // second: the 12.5 mm the segment check leaves (half a sample step less) hold up
+        // to about 0.13 m/s, under the corner's own 0.27 m/s.
+        let wall = Rect::from_spans(0.2, 0.335, 0.16, 0.45);
+        let near = FreeSpace::with_walls(vec![wall], footprint, config.shortcut_margin_m);
+        let cap = cap_tight_corners(route(), &near, &config).corner_cap_m_s(1);
+        assert!((0.12..0.14).contains(&cap), "{cap}");
+        // Beyond the cut's reach, no cap: the same wall from 0.3 m past the corner.
+        let far = Rect::from_spans(0.2, 0.335, 0.3, 0.45);
+        let far = FreeSpace::with_walls(vec![far], footprint, config.shortcut_margin_m);
+        assert_eq!(
+            cap_tight_corners(route(), &far, &config).corner_cap_m_s(1),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn the_held_headings_keep_the_body_off_every_obstacle_between_any_two_slots() {
+        // Regression: from machine B's input row to its output 55 the graph's diagonal edge
+        // 4 → 30, driven at the goal heading 180°, grazed a divider of machine B.
+        let field = Field::competition();
+        let map = RoadMap::new(field.waypoints().clone());
+        let config = NavigationConfig::default();
+        let mut checked = 0;
+        for (carrying, from, to) in legs_the_rules_allow(&field) {
+            let footprint = Footprint::centred(0.30, 0.30, carrying);
+            let space = FreeSpace::new(&field, &[], footprint, config.shortcut_margin_m);
+            // Where the robot stands after backing out of `from`.
+            let normal = Vec2::from_angle(from.face_normal_rad);
+            let p = from.pick_pose.position() + normal * 0.08;
+            let start = Pose2::new(p.x, p.y, from.pick_pose.yaw_rad);
+            let route = plan_route(&field, &map, &space, start, &to, &config).unwrap();
+            for i in 0..route.points().len() - 2 {
+                for (a, b, yaw) in held_stretches(&route, i) {
+                    assert!(
+                        space.segment_is_free_with_margin(a, b, &[yaw], 0.0),
+                        "{} → {} (carrying: {carrying}): segment {i} {a:?} → {b:?} at {yaw}",
+                        from.waypoint,
+                        to.waypoint
+                    );
+                    checked += 1;
                 }
             }
         }
         assert!(checked > 400, "{checked}");
+    }
+
+    /// Every pose `route` has the robot hold, sampled every 5 mm, keeps the body (and its
+    /// part) off every obstacle: holding the start heading before the turn window and the
+    /// goal heading after it, and inside the window at any heading (its swept disc). The
+    /// start is not checked when `part_in_slot`: a part just picked stands against its
+    /// slot's back wall.
+    fn assert_route_keeps_clear(route: &Route, space: &FreeSpace, part_in_slot: bool, leg: &str) {
+        let (from_m, to_m) = route
+            .turn_window_m()
+            .unwrap_or((route.length_m(), route.length_m()));
+        let steps = (route.length_m() / 0.005).ceil() as usize;
+        for k in usize::from(part_in_slot)..=steps {
+            let s = route.length_m() * k as f64 / steps as f64;
+            let p = route.point_at(s);
+            let room = if s < from_m {
+                space.pose_clearance_m(Pose2::new(p.x, p.y, route.start_yaw_rad()), 1.0)
+            } else if s > to_m {
+                space.pose_clearance_m(Pose2::new(p.x, p.y, route.goal().yaw_rad), 1.0)
+            } else {
+                space.turn_clearance_m(p, 1.0)
+            };
+            assert!(
+                room > 0.0,
+                "{leg}: at {s:.3} m of {:.3} m, {p:?}",
+                route.length_m()
+            );
+        }
+    }
+
+    #[test]
+    fn free_routes_join_every_two_slots_and_keep_the_body_off_every_obstacle() {
+        let mut config = Config::default();
+        config.navigation.free_routes = true;
+        let legs = LegPlanner::new(&config);
+        let field = legs.field().clone();
+        let mut checked = 0;
+        for (carrying, from, to) in legs_the_rules_allow(&field) {
+            let (space, free) = if carrying {
+                &legs.carrying
+            } else {
+                &legs.empty
+            };
+            let free = free.as_ref().expect("free routes on");
+            let goal = if carrying { drop_slot(&to) } else { to };
+            let leg = format!("{} → {} (carrying: {carrying})", from.waypoint, to.waypoint);
+            // Docked in `from`, straight out of it first.
+            let route = free_routes(free, &field, from.pick_pose, &[goal], &config.navigation)
+                .remove(0)
+                .unwrap_or_else(|| panic!("{leg}: no free route"));
+            let exit = route.points()[1] - route.points()[0];
+            let normal = Vec2::from_angle(from.face_normal_rad);
+            assert!(exit.dot(normal) >= SLOT_EXIT_M - 1e-9, "{leg}: {exit:?}");
+            // (Collinear points within a millimetre are merged.)
+            assert!(
+                exit.cross(normal).abs() < MERGE_TOLERANCE_M,
+                "{leg}: {exit:?}"
+            );
+            // Straight into `to`, square to its face.
+            assert_eq!(route.goal(), goal.pick_pose, "{leg}");
+            let n = route.points().len();
+            let entry = route.points()[n - 1] - route.points()[n - 2];
+            assert!(entry.norm() >= SLOT_EXIT_M - 1e-9, "{leg}: {entry:?}");
+            assert!(
+                wrap_angle(entry.angle() - goal.pick_pose.yaw_rad).abs() < 1e-9,
+                "{leg}"
+            );
+            assert_route_keeps_clear(&route, space, carrying, &leg);
+            checked += 1;
+        }
+        assert!(checked > 100, "{checked}");
+    }
+
+    #[test]
+    fn free_routes_are_faster_than_the_road_maps_over_all_legs() {
+        let mut config = Config::default();
+        config.navigation.free_routes = false;
+        let graph = LegPlanner::new(&config);
+        config.navigation.free_routes = true;
+        let free = LegPlanner::new(&config);
+        let timer = crate::control::route_time::RouteTimer::new(&config);
+        let (mut graph_s, mut free_s) = (0.0, 0.0);
+        for (carrying, from, to) in legs_the_rules_allow(free.field()) {
+            graph_s += timer.seconds(&graph.plan(from.pick_pose, &to, carrying).unwrap());
+            free_s += timer.seconds(&free.plan(from.pick_pose, &to, carrying).unwrap());
+        }
+        assert!(
+            free_s < 0.95 * graph_s,
+            "{free_s:.1} s against {graph_s:.1} s"
+        );
     }
 
     #[test]

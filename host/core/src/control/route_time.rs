@@ -11,10 +11,8 @@
 //! tenth of a second.
 use crate::config::{Config, NavigationConfig};
 use crate::control::profile::{HeadingPlan, Profile, WheelBudget};
-use crate::control::route::{Route, plan_leg};
-use crate::planning::graph::RoadMap;
-use crate::planning::our_map::our_graph;
-use crate::planning::shortcuts::{Footprint, FreeSpace};
+use crate::control::route::{LegPlanner, Route};
+use crate::field::Slot;
 use crate::planning::tasks::{LOCATION_COUNT, Location, StraightLineTimes, TravelTimes};
 
 /// Arc-length step of the speed profile, m (5 mm: well under the shortest corner blend).
@@ -81,17 +79,8 @@ pub struct RouteTimes {
 impl RouteTimes {
     /// The times for the robot of `config` on the competition field.
     pub fn new(config: &Config) -> Self {
-        let field = config.robot.field();
-        let map = RoadMap::new(our_graph(&field, &Footprint::of_robot(&config.robot, true)));
-        let space = |carrying: bool| {
-            FreeSpace::new(
-                &field,
-                &[],
-                Footprint::of_robot(&config.robot, carrying),
-                config.navigation.shortcut_margin_m,
-            )
-        };
-        let (empty, carrying) = (space(false), space(true));
+        let legs = LegPlanner::new(config);
+        let field = legs.field().clone();
         let timer = RouteTimer::new(config);
         let fallback = StraightLineTimes::new(
             &field,
@@ -101,34 +90,36 @@ impl RouteTimes {
         let mut seconds = [[0.0; LOCATION_COUNT]; LOCATION_COUNT];
         let mut unplanned = Vec::new();
         for (i, &from) in Location::ALL.iter().enumerate() {
-            for (j, &to) in Location::ALL.iter().enumerate() {
-                if i == j {
-                    continue;
+            let Some(start) = from.robot_pose(&field) else {
+                continue;
+            };
+            // Empty to the picks, carrying a part to the drops: one search each.
+            for carrying in [false, true] {
+                let to: Vec<(usize, Location)> = Location::ALL
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .filter(|&(j, to)| j != i && to.is_pick() != carrying)
+                    .collect();
+                let slots: Vec<Slot> = to
+                    .iter()
+                    .filter_map(|(_, to)| to.slot(&field).copied())
+                    .collect();
+                let routes = legs.plan_many(start, &slots, carrying);
+                let mut routes = routes.into_iter();
+                for &(j, to) in &to {
+                    let route = to
+                        .slot(&field)
+                        .and_then(|_| routes.next())
+                        .and_then(Result::ok);
+                    seconds[i][j] = match route {
+                        Some(route) => timer.seconds(&route),
+                        None => {
+                            unplanned.push((from, to));
+                            fallback.travel_s(from, to)
+                        }
+                    };
                 }
-                let route = match (from.robot_pose(&field), to.slot(&field)) {
-                    (Some(start), Some(slot)) => {
-                        let space = if to.is_pick() { &empty } else { &carrying };
-                        let carrying = !to.is_pick();
-                        plan_leg(
-                            &field,
-                            &map,
-                            space,
-                            start,
-                            slot,
-                            &config.navigation,
-                            carrying,
-                        )
-                        .ok()
-                    }
-                    _ => None,
-                };
-                seconds[i][j] = match route {
-                    Some(route) => timer.seconds(&route),
-                    None => {
-                        unplanned.push((from, to));
-                        fallback.travel_s(from, to)
-                    }
-                };
             }
         }
         Self { seconds, unplanned }

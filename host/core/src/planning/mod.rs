@@ -5,6 +5,7 @@
 
 pub mod bound;
 pub mod disc_paths;
+pub mod free_routes;
 pub mod graph;
 pub mod our_map;
 pub mod shortcuts;
