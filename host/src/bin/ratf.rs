@@ -319,8 +319,9 @@ struct ReplayArgs {
 
 #[derive(Debug, Subcommand)]
 enum BenchCommand {
-    /// The round's trips with our follower and the original one: time, goal error,
-    /// cross-track error, collisions.
+    /// The round's trips with our follower and the original one, and ours on its other
+    /// route planner (free space or the road map): time, goal error, cross-track error,
+    /// collisions.
     Navigation(NavBenchArgs),
     /// Every round with both policies over many seeds: full-score rate, times, collisions.
     Rounds(RoundsBenchArgs),
@@ -726,18 +727,20 @@ fn nav_bench_command(args: &NavBenchArgs) -> anyhow::Result<()> {
     use ratf_host::apps::nav_bench::{self, Preset, Summary};
     let config = args.bench.config()?;
     let trips = nav_bench::round_trips();
-    let mut without_shortcuts = config.clone();
-    without_shortcuts.navigation.shortcuts = !config.navigation.shortcuts;
+    // Ours again on the other planner: the road map if the config plans through free
+    // space, free space if it plans on the road map.
+    let mut other_planner = config.clone();
+    other_planner.navigation.free_routes = !config.navigation.free_routes;
     let runs = [
         ("ours", &config, Preset::Ours),
         ("original", &config, Preset::Original),
         (
-            if config.navigation.shortcuts {
-                "ours, no shortcuts"
+            if config.navigation.free_routes {
+                "ours, road map"
             } else {
-                "ours, shortcuts"
+                "ours, free routes"
             },
-            &without_shortcuts,
+            &other_planner,
             Preset::Ours,
         ),
     ];
