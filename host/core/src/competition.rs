@@ -10,6 +10,8 @@
 //! others are done, with that drop planned only if no other will do. When the organisers'
 //! server answers, its strings correct that knowledge ([`TaskActions::offer_snapshot`]).
 
+use std::sync::Arc;
+
 use crate::config::{Config, Policy as Driving};
 use crate::control::creep::{Creep, CreepLimits};
 use crate::control::follower::{Follower, PathFollower, Status};
@@ -329,8 +331,8 @@ pub struct RouteNavigator {
     field: Field,
     /// The original's graph (its routes, `plan_original_route`).
     map: RoadMap,
-    /// Our legs' planner (`None` for the original preset).
-    legs: Option<LegPlanner>,
+    /// Our legs' planner (`None` for the original preset), shared with whoever built it.
+    legs: Option<Arc<LegPlanner>>,
     preset: Driving,
     follower: Box<dyn PathFollower>,
     dock: bool,
@@ -362,14 +364,28 @@ impl RouteNavigator {
         &self.field
     }
 
+    /// Our legs' planner (`None` for the original preset).
+    pub fn legs(&self) -> Option<&Arc<LegPlanner>> {
+        self.legs.as_ref()
+    }
+
     /// A navigator for the robot in `config` driving with `preset`: ours (the route planner
     /// on our road map, `planning::our_map`, and `control::follower`) or the original's (its
     /// routes on its graph and `control::original`).
     pub fn new(config: &Config, preset: Driving) -> Self {
+        let legs = (preset == Driving::Ours).then(|| Arc::new(LegPlanner::new(config)));
+        Self::with_legs(config, preset, legs)
+    }
+
+    /// [`Self::new`] with our legs' planner built beforehand (`legs`, used with
+    /// `Driving::Ours` only; built here if `None`). Building one takes a tenth of a second
+    /// and more (the free-space grids), too long for a tick of the loop: the brain builds
+    /// it once, before the round, and hands it to the navigator the part list starts.
+    pub fn with_legs(config: &Config, preset: Driving, legs: Option<Arc<LegPlanner>>) -> Self {
         // Ours docks where its own magnet meets the plate; the original at its fixed poses.
         let (field, legs) = match preset {
             Driving::Ours => {
-                let legs = LegPlanner::new(config);
+                let legs = legs.unwrap_or_else(|| Arc::new(LegPlanner::new(config)));
                 (legs.field().clone(), Some(legs))
             }
             Driving::Original => (Field::competition(), None),

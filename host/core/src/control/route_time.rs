@@ -79,7 +79,12 @@ pub struct RouteTimes {
 impl RouteTimes {
     /// The times for the robot of `config` on the competition field.
     pub fn new(config: &Config) -> Self {
-        let legs = LegPlanner::new(config);
+        Self::with_planner(&LegPlanner::new(config), config)
+    }
+
+    /// The times of the routes `legs` plans for the robot of `config` (one planner for
+    /// these times and the navigator: [`LegPlanner::new`] builds the free-space grids).
+    pub fn with_planner(legs: &LegPlanner, config: &Config) -> Self {
         let field = legs.field().clone();
         let timer = RouteTimer::new(config);
         let fallback = StraightLineTimes::new(

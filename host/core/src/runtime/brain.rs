@@ -7,7 +7,9 @@
 
 use crate::competition::{RouteNavigator, SnapshotUse, TaskActions};
 use crate::config::{Config, Policy};
-use crate::control::route::Route;
+use std::sync::Arc;
+
+use crate::control::route::{LegPlanner, Route};
 use crate::control::route_time::RouteTimes;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
@@ -50,6 +52,9 @@ pub struct BrainTick {
 /// The competition brain: see the module documentation.
 pub struct Brain {
     config: Config,
+    /// Our legs' planner (`None` for the original policy), built once with the brain: the
+    /// task planner's route times and the round's navigator both plan with it.
+    legs: Option<Arc<LegPlanner>>,
     model: Model,
     mission_config: MissionConfig,
     mission: Option<Mission<RouteNavigator, TaskActions>>,
@@ -79,9 +84,10 @@ impl Brain {
         let competition = &config.competition;
         // Ours plans on the times of the routes it will drive; the original on straight
         // lines at its cruise speed and turn rate, as it did.
-        let travel: Box<dyn TravelTimes> = match competition.policy {
-            Policy::Ours => Box::new(RouteTimes::new(config)),
-            Policy::Original => Box::new(StraightLineTimes::new(
+        let legs = (competition.policy == Policy::Ours).then(|| Arc::new(LegPlanner::new(config)));
+        let travel: Box<dyn TravelTimes> = match &legs {
+            Some(legs) => Box::new(RouteTimes::with_planner(legs, config)),
+            None => Box::new(StraightLineTimes::new(
                 &field,
                 competition.planner_speed_m_s,
                 competition.planner_turn_rate_rad_s,
@@ -107,6 +113,7 @@ impl Brain {
                 Policy::Original => config.mission.original(),
             },
             config: config.clone(),
+            legs,
             model,
             mission: None,
             tracker: RequestTracker::new(RetryPolicy::from_config(&config.referee)),
@@ -266,7 +273,7 @@ impl Brain {
             Policy::Original => Box::new(Original::default()),
         };
         let actions = TaskActions::new(self.model.clone(), planner, state);
-        let navigator = RouteNavigator::new(&self.config, policy);
+        let navigator = RouteNavigator::with_legs(&self.config, policy, self.legs.clone());
         let field = navigator.field();
         let floor = search_floor(field, &self.config.robot);
         let slot_poses = field
@@ -325,5 +332,26 @@ fn describe(actions: &TaskActions, event: MissionEvent) -> Event {
             reason,
         },
         MissionEvent::Finished => Event::Finished,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+
+    /// Regression: the part list built the navigator's leg planner inside the loop's tick
+    /// (the free-space grids: a tenth of a second and more, the loop stalled at the start
+    /// of every round; in real time, a served odometry drive fitted its wheels 0.12 % off).
+    /// The navigator the part list starts plans with the planner the brain built before.
+    #[test]
+    fn the_round_starts_with_the_leg_planner_built_before_it() {
+        let mut brain = Brain::new(&Config::default()).unwrap();
+        let built = Arc::clone(brain.legs.as_ref().unwrap());
+        let parts = crate::referee::protocol::parse_letters("BBBB").unwrap();
+        brain.force_start(0, parts, &mut Vec::new());
+        let mission = brain.mission.as_ref().unwrap();
+        let navigating = mission.navigator().legs().unwrap();
+        assert!(Arc::ptr_eq(&built, navigating));
     }
 }
