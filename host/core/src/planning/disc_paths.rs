@@ -16,6 +16,7 @@ use std::collections::BinaryHeap;
 use std::f64::consts::FRAC_PI_2;
 
 use crate::field::geometry::{Rect, Vec2};
+use crate::planning::cheapest_first::Cheapest;
 
 /// Chords per rounded corner.
 pub const ARC_SEGMENTS: usize = 8;
@@ -282,28 +283,22 @@ fn edges(polygon: &[Vec2]) -> impl Iterator<Item = (Vec2, Vec2)> + '_ {
 /// `start` (zero at a single source, or a region's entry lengths), with each node's
 /// predecessor on its shortest path (`usize::MAX` for a start node or an unreached one).
 fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> (Vec<f64>, Vec<usize>) {
-    #[derive(PartialEq)]
-    struct Entry(f64, usize);
-    impl Eq for Entry {}
-    impl PartialOrd for Entry {
-        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-            Some(self.cmp(other))
-        }
-    }
-    impl Ord for Entry {
-        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-            other.0.total_cmp(&self.0)
-        }
-    }
-    let mut queue: BinaryHeap<Entry> = start
+    let mut queue: BinaryHeap<Cheapest<usize>> = start
         .iter()
         .enumerate()
         .filter(|(_, length)| length.is_finite())
-        .map(|(node, length)| Entry(*length, node))
+        .map(|(node, length)| Cheapest {
+            cost: *length,
+            item: node,
+        })
         .collect();
     let mut previous = vec![usize::MAX; start.len()];
     let mut best = start;
-    while let Some(Entry(length, node)) = queue.pop() {
+    while let Some(Cheapest {
+        cost: length,
+        item: node,
+    }) = queue.pop()
+    {
         if length > best[node] {
             continue;
         }
@@ -312,7 +307,10 @@ fn dijkstra(edges: &[Vec<(usize, f64)>], start: Vec<f64>) -> (Vec<f64>, Vec<usiz
             if candidate < best[next] {
                 best[next] = candidate;
                 previous[next] = node;
-                queue.push(Entry(candidate, next));
+                queue.push(Cheapest {
+                    cost: candidate,
+                    item: next,
+                });
             }
         }
     }

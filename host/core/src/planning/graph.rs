@@ -7,11 +7,11 @@
 //! are merged with a distance tolerance instead of exact floating-point equality of unit
 //! vectors.
 
-use std::cmp::Ordering;
 use std::collections::{BTreeMap, BinaryHeap};
 
 use crate::field::geometry::{Segment, Vec2};
 use crate::field::{Field, WaypointGraph, WaypointId};
+use crate::planning::cheapest_first::Cheapest;
 
 /// Run-time state of one undirected edge.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,31 +71,6 @@ pub struct RoadMap {
 /// Canonical key of an undirected edge.
 fn key(a: WaypointId, b: WaypointId) -> (WaypointId, WaypointId) {
     (a.min(b), a.max(b))
-}
-
-/// A heap entry ordered so that `BinaryHeap` pops the smallest cost first and, among equal
-/// costs, the smallest vertex id (the deterministic tie-break).
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Entry {
-    cost_m: f64,
-    vertex: WaypointId,
-}
-
-impl Eq for Entry {}
-
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other
-            .cost_m
-            .total_cmp(&self.cost_m)
-            .then_with(|| other.vertex.cmp(&self.vertex))
-    }
-}
-
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
 }
 
 impl RoadMap {
@@ -168,11 +143,15 @@ impl RoadMap {
         let mut settled = std::collections::BTreeSet::new();
         let mut heap = BinaryHeap::new();
         best.insert(from, (0.0, None));
-        heap.push(Entry {
-            cost_m: 0.0,
-            vertex: from,
+        heap.push(Cheapest {
+            cost: 0.0,
+            item: from,
         });
-        while let Some(Entry { cost_m, vertex }) = heap.pop() {
+        while let Some(Cheapest {
+            cost: cost_m,
+            item: vertex,
+        }) = heap.pop()
+        {
             if !settled.insert(vertex) {
                 continue;
             }
@@ -187,9 +166,9 @@ impl RoadMap {
                 let better = best.get(&next).is_none_or(|(c, _)| candidate < *c);
                 if better && !settled.contains(&next) {
                     best.insert(next, (candidate, Some(vertex)));
-                    heap.push(Entry {
-                        cost_m: candidate,
-                        vertex: next,
+                    heap.push(Cheapest {
+                        cost: candidate,
+                        item: next,
                     });
                 }
             }

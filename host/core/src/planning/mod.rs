@@ -4,6 +4,7 @@
 //! ([`tasks`]).
 
 pub mod bound;
+mod cheapest_first;
 pub mod disc_paths;
 pub mod free_routes;
 pub mod graph;

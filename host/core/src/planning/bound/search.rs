@@ -8,6 +8,7 @@ use std::collections::{BinaryHeap, HashMap};
 use std::fmt;
 
 use crate::field::{MachineKind, PartColor};
+use crate::planning::cheapest_first::Cheapest;
 use crate::planning::tasks::model::Rules;
 use crate::referee::protocol::SlotLetters;
 
@@ -86,7 +87,7 @@ fn stop(station: usize, face: u8, faces: u8) -> u8 {
 }
 
 /// Where a part is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 enum Where {
     Incoming(u8),
     /// On the robot's magnet face `f` (an index into the faces the search was given).
@@ -96,13 +97,13 @@ enum Where {
     Delivered(u8),
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 struct Part {
     at: Where,
     color: PartColor,
 }
 
-#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 struct State {
     /// The stop the robot is at ([`stop`]).
     robot: u8,
@@ -148,8 +149,15 @@ pub fn search(
             .collect(),
     };
     let mut best: HashMap<State, f64> = HashMap::from([(start.clone(), 0.0)]);
-    let mut queue = BinaryHeap::from([Entry(0.0, start)]);
-    while let Some(Entry(time, state)) = queue.pop() {
+    let mut queue = BinaryHeap::from([Cheapest {
+        cost: 0.0,
+        item: start,
+    }]);
+    while let Some(Cheapest {
+        cost: time,
+        item: state,
+    }) = queue.pop()
+    {
         if best.get(&state).is_some_and(|&b| time > b) {
             continue;
         }
@@ -170,7 +178,10 @@ pub fn search(
             let next = State { robot: to, ..next };
             if best.get(&next).is_none_or(|&b| candidate < b) {
                 best.insert(next.clone(), candidate);
-                queue.push(Entry(candidate, next));
+                queue.push(Cheapest {
+                    cost: candidate,
+                    item: next,
+                });
             }
         }
     }
@@ -242,29 +253,6 @@ fn moves(rules: Rules, faces: u8, state: &State) -> Vec<(Station, u8, State, Set
         }
     }
     moves
-}
-
-/// A queue entry, least time first.
-struct Entry(f64, State);
-
-impl PartialEq for Entry {
-    fn eq(&self, other: &Self) -> bool {
-        self.0.total_cmp(&other.0).is_eq()
-    }
-}
-
-impl Eq for Entry {}
-
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.0.total_cmp(&self.0)
-    }
 }
 
 #[cfg(test)]

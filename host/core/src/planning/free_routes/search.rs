@@ -4,10 +4,10 @@
 //! step costing its length weighted by how little room the cells leave, the turning layer's
 //! steps discounted so that the search prefers to cross open floor where the robot turns.
 
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 use super::grid::{CELL_M, ClearanceGrid};
+use crate::planning::cheapest_first::Cheapest;
 
 /// What a step costs (module documentation).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,30 +107,6 @@ impl Tree {
     }
 }
 
-/// A queued state with its cost, cheapest first out of a max-heap.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Queued {
-    cost: f64,
-    index: usize,
-}
-
-impl Eq for Queued {}
-
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other
-            .cost
-            .total_cmp(&self.cost)
-            .then_with(|| other.index.cmp(&self.index))
-    }
-}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
 /// Dijkstra from `sources` (states with their costs) over `layers`: steps to the eight
 /// neighbouring cells within a layer where the next cell has room (turning, at least
 /// [`StepCosts::turn_floor_m`]), and from the start layer into the turning one, and from
@@ -149,11 +125,11 @@ pub fn cheapest(layers: &Layers<'_>, costs: &StepCosts, sources: &[(State, f64)]
         let index = tree.index(state);
         if cost < tree.cost[index] {
             tree.cost[index] = cost;
-            queue.push(Queued { cost, index });
+            queue.push(Cheapest { cost, item: index });
         }
     }
     let mut done = vec![false; cells * count];
-    while let Some(Queued { cost, index }) = queue.pop() {
+    while let Some(Cheapest { cost, item: index }) = queue.pop() {
         if done[index] {
             continue;
         }
@@ -165,9 +141,9 @@ pub fn cheapest(layers: &Layers<'_>, costs: &StepCosts, sources: &[(State, f64)]
             if next_cost < tree.cost[next] {
                 tree.cost[next] = next_cost;
                 tree.previous[next] = index as u32;
-                queue.push(Queued {
+                queue.push(Cheapest {
                     cost: next_cost,
-                    index: next,
+                    item: next,
                 });
             }
         };
