@@ -633,7 +633,7 @@ mod tests {
             let mut f = Follower::new(&Config::default());
             f.start_moving(route, Vec2::new(0.5, 0.0));
             let twist = f.update(1_000, Pose2::new(0.17, 0.0, down), false).twist;
-            twist.vx_m_s.hypot(twist.vy_m_s)
+            crate::field::geometry::hypot(twist.vx_m_s, twist.vy_m_s)
         };
         // Carrying a part in: the commands in flight (0.18 s of them here) take the robot
         // 9 cm on, and it brakes from there for the cap 1 cm before the corner:

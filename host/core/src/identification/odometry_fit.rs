@@ -14,7 +14,7 @@
 use crate::calibration::Stop;
 use crate::config::Config;
 use crate::field::Field;
-use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::field::geometry::{Pose2, Vec2, hypot, wrap_angle};
 
 /// A leg turning less than this (rad) counts as straight.
 pub const STRAIGHT_LEG_MAX_TURN_RAD: f64 = 0.05;
@@ -212,7 +212,7 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
         .map(|l| {
             let dx = l.beacons.x - radius_factor * l.odometry.x;
             let dy = l.beacons.y - radius_factor * strafe_correction * l.odometry.y;
-            dx.hypot(dy)
+            hypot(dx, dy)
         })
         .collect();
     let residual_m =

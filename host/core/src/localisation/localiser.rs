@@ -13,7 +13,7 @@ use super::{Health, PoseEstimator, ScanReport, chi2_quantile};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
-use crate::field::geometry::{Pose2, Vec2, wrap_angle};
+use crate::field::geometry::{Pose2, Vec2, hypot, wrap_angle};
 use crate::field::{Beacon, Field};
 use crate::odometry::BodyIncrement;
 
@@ -506,7 +506,7 @@ impl PoseEstimator for Localiser {
             ),
             unmeasured_translation_std_m: None,
         };
-        self.measured_speed_m_s = increment.dx_m.hypot(increment.dy_m) / input.dt_s;
+        self.measured_speed_m_s = hypot(increment.dx_m, increment.dy_m) / input.dt_s;
         self.bridging = false;
         let (state, outcome) = latest
             .state

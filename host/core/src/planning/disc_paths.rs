@@ -379,7 +379,10 @@ mod tests {
                 let p = pair[0] + (pair[1] - pair[0]) * (k as f64 / 20.0);
                 let dx = (wall().min.x - p.x).max(p.x - wall().max.x).max(0.0);
                 let dy = (wall().min.y - p.y).max(p.y - wall().max.y).max(0.0);
-                assert!(dx.hypot(dy) >= 0.15 - 1e-9, "{p:?}");
+                assert!(
+                    crate::field::geometry::hypot(dx, dy) >= 0.15 - 1e-9,
+                    "{p:?}"
+                );
             }
         }
         let length: f64 = path.windows(2).map(|w| w[0].distance(w[1])).sum();
@@ -416,7 +419,7 @@ mod tests {
             for v in rounded_rect(rect, r, Fit::Inscribed, ARC_SEGMENTS) {
                 let dx = (rect.min.x - v.x).max(v.x - rect.max.x).max(0.0);
                 let dy = (rect.min.y - v.y).max(v.y - rect.max.y).max(0.0);
-                prop_assert!((dx.hypot(dy) - r).abs() < 1e-9);
+                prop_assert!((crate::field::geometry::hypot(dx, dy) - r).abs() < 1e-9);
             }
         }
 

@@ -202,8 +202,9 @@ impl FreeSpace {
         let mut least = cap_m;
         for piece in self.footprint.rects_at(pose, 0.0) {
             let centre = piece.pose.position();
+            let reach_m = piece.circumradius_m();
             for rect in &self.rects {
-                if rect.distance_to_point(centre) >= piece.circumradius_m() + least {
+                if rect.distance_to_point(centre) >= reach_m + least {
                     continue;
                 }
                 least = least.min(piece.distance_to(&OrientedRect::from_rect(*rect)));
@@ -391,7 +392,7 @@ mod tests {
         assert!((footprint.back_m() - 0.138).abs() < 1e-12);
         // The farthest body corner: 0.162 ahead, 0.158 to the side.
         assert!(
-            (footprint.sweep_radius_m() - 0.162f64.hypot(0.158).max(0.237f64.hypot(0.045))).abs()
+            (footprint.sweep_radius_m() - hypot(0.162, 0.158).max(hypot(0.237, 0.045))).abs()
                 < 1e-12
         );
         // The default robot is the centred 30 cm square.
