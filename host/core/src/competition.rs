@@ -373,8 +373,7 @@ impl RouteNavigator {
     /// on our road map, `planning::our_map`, and `control::follower`) or the original's (its
     /// routes on its graph and `control::original`).
     pub fn new(config: &Config, preset: Driving) -> Self {
-        let legs = (preset == Driving::Ours).then(|| Arc::new(LegPlanner::new(config)));
-        Self::with_legs(config, preset, legs)
+        Self::with_legs(config, preset, None)
     }
 
     /// [`Self::new`] with our legs' planner built beforehand (`legs`, used with

@@ -5,10 +5,10 @@
 //! Moved out of the simulator's round so that the robot, the simulator and a replay run the
 //! very same decisions. Pure: time comes with each call.
 
-use crate::competition::{RouteNavigator, SnapshotUse, TaskActions};
-use crate::config::{Config, Policy};
 use std::sync::Arc;
 
+use crate::competition::{RouteNavigator, SnapshotUse, TaskActions};
+use crate::config::{Config, Policy};
 use crate::control::route::{LegPlanner, Route};
 use crate::control::route_time::RouteTimes;
 use crate::field::Field;
