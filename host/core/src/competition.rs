@@ -78,6 +78,9 @@ pub struct TaskActions {
     disagreements: usize,
     /// The colour of the last part placed, as picked.
     last_placed: Option<PartColor>,
+    /// The newest snapshot offered, folded in or not: what the server shows of a part the
+    /// robot let go ([`ActionSource::placed_per_server`]).
+    newest_snapshot: Option<ServerSnapshot>,
 }
 
 impl std::fmt::Debug for TaskActions {
@@ -112,6 +115,7 @@ impl TaskActions {
             snapshots_applied: 0,
             disagreements: 0,
             last_placed: None,
+            newest_snapshot: None,
         }
     }
 
@@ -160,6 +164,7 @@ impl TaskActions {
     /// applied on top when it is done, and the next plan starts from the result. Parts given
     /// up stay given up while the server still shows them where they were left.
     pub fn offer_snapshot(&mut self, snapshot: &ServerSnapshot) -> SnapshotUse {
+        self.newest_snapshot = Some(*snapshot);
         let fresh = snapshot.sent_us >= self.since_us && snapshot.sent_us <= snapshot.answered_us;
         let before_pick = self.picking_us.is_none_or(|p| snapshot.answered_us < p);
         if !(fresh && before_pick) {
@@ -315,6 +320,39 @@ impl ActionSource for TaskActions {
             self.returned.push((location, part.color));
         }
         self.state.time_s = now_us as f64 * 1e-6;
+    }
+
+    /// The server shows the pending action's part placed when it shows one more part of
+    /// the placed part's colour where the action puts it (a machine's output for a drop at
+    /// its input, as [`Model::apply`] does) than the planner knew there before the action.
+    fn placed_per_server(&self, since_us: u64) -> Option<bool> {
+        let snapshot = self.newest_snapshot.filter(|s| s.sent_us >= since_us)?;
+        let (pending, part) = self.pending?;
+        let index = self
+            .state
+            .parts
+            .iter()
+            .position(|p| p.place == pending.from && p.color == part.color)?;
+        let action = tasks::Action {
+            part: index,
+            ..pending
+        };
+        let (after, _) = self.model.apply(&self.state, action).ok()?;
+        let placed = after.parts.get(index)?;
+        let server = State::from_server(
+            snapshot.areas,
+            self.state.robot,
+            snapshot.answered_us as f64 * 1e-6,
+            self.model.timing,
+            self.model.rules,
+        );
+        let count = |parts: &[PartState]| {
+            parts
+                .iter()
+                .filter(|p| p.place == placed.place && p.color == placed.color)
+                .count()
+        };
+        Some(count(&server.parts) > count(&self.state.parts))
     }
 }
 
@@ -546,6 +584,7 @@ impl Navigator for RouteNavigator {
 mod tests {
     use super::*;
     use crate::field::PartColor;
+    use crate::field::stations::MachineKind;
     use crate::planning::tasks::{
         BranchAndBound, Location, Original, Rules, StraightLineTimes, Timing,
     };
@@ -807,6 +846,55 @@ mod tests {
         assert_ne!(second.pick, first.pick);
         actions.action_done(second, true, 10 * S);
         assert_eq!(actions.next_action(10 * S), None);
+    }
+
+    /// A part a hold let go near its drop ([`ActionSource::placed_per_server`]): a green
+    /// part of round 2 taken to a machine, which (with no delay) turns it blue and moves it
+    /// to its output at once, as machine B did in the lidar replug traced at seed 15.
+    #[test]
+    fn the_server_shows_a_part_let_go_placed_on_its_machine_and_not_where_it_was() {
+        use PartColor::{Blue, Green};
+        let field = Field::competition();
+        let state = State::from_incoming(&[Some(Green), None, None, None], Location::Start, 0.0);
+        let mut actions = TaskActions::new(model(2), Box::new(BranchAndBound::default()), state);
+        let action = actions.next_action(0).unwrap();
+        let Some((kind, row)) = Location::ALL.iter().find_map(|l| match l {
+            Location::MachineInput(kind, row) if l.waypoint(&field) == Some(action.drop) => {
+                Some((*kind, *row))
+            }
+            _ => None,
+        }) else {
+            panic!("a green part goes to a machine: {action:?}");
+        };
+        let area = match kind {
+            MachineKind::A => 2,
+            MachineKind::B => 3,
+        };
+        actions.picking(S);
+        let let_go_us = 5 * S;
+        let answer = |areas| snapshot(areas, let_go_us, let_go_us + S / 10);
+        let mut on_output = [[None; 4]; 4];
+        on_output[area][2 * row + 1] = Some(Blue);
+        let mut in_input = [[None; 4]; 4];
+        in_input[area][2 * row] = Some(Green);
+        let mut at_pick = [[None; 4]; 4];
+        at_pick[0][0] = Some(Green);
+        assert_eq!(actions.placed_per_server(let_go_us), None, "no answer yet");
+        for (areas, placed) in [
+            (on_output, true),
+            (in_input, true),
+            ([[None; 4]; 4], false),
+            (at_pick, false),
+        ] {
+            assert_eq!(actions.offer_snapshot(&answer(areas)), SnapshotUse::Ignored);
+            assert_eq!(
+                actions.placed_per_server(let_go_us),
+                Some(placed),
+                "{areas:?}"
+            );
+            // Asked before the part was let go, the answer says nothing of it.
+            assert_eq!(actions.placed_per_server(let_go_us + 1), None);
+        }
     }
 
     #[test]

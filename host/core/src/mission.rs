@@ -17,7 +17,8 @@
 //! | to drop | arrived at the drop pose | skip the action and take the part back to its pick slot (`return_given_up_part`; the original keeps it on the magnet) |
 //! | taking a given-up part back | arrived at its pick pose: release, back out, report the action failed | let it go where it stands, back out, report the action failed |
 //! | to drop, headed in, no closer for 1 s 3–15 cm short of it | — | jammed (`mission::jam`): back off 3 cm, let the part go and grip it again centred (regripping), at most twice an action |
-//! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); else it fell off the magnet: look for it (regripping) |
+//! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); after a hold that let it go near the drop: ask the server (awaiting the server); else it fell off the magnet: look for it (regripping) |
+//! | awaiting the server | the server shows the part placed: releasing | shown elsewhere, or no word for `server_word_wait_s`: look for it (regripping) |
 //! | regripping | the switch closed, the robot centred on the plate (magnet off, the switch's edges to either side) and the magnet held for `grip_settle_s`: reverse up to `regrip_backoff_m` along the creep, 1 cm short of the walls behind (`FLOOR_REVERSE_CLEARANCE_M`), and carry on | stopped, then `regrip_looks` bounded looks where the part was last held (`mission::search`) without finding it: magnet off, skip the action |
 //! | releasing | magnet off for `release_settle_s` | — |
 //! | backing out after the drop | the switch open once 2 cm out (`RELEASE_SEEN_M`): placed, and the next action sets off in the same tick at the reverse's speed (its route leaves the slot straight) | still closed at the reverse's end: report the part as stuck |
@@ -36,10 +37,15 @@
 //! switch then reads open with the robot at its drop pose, or up to
 //! [`LET_GO_SHORT_OF_DROP_M`] short of it, and the mission releases and backs out as after an
 //! arrival instead of searching for the part (it searched the slot's dividers and gave the
-//! placed part up). One that let the magnet go farther than the jam watch's reach from the
-//! drop, and out of the pick slot, has the robot let the part go and grip it again centred on
-//! its plate, as after a jam: it coasted on meanwhile, and the magnet, back on, took the part
-//! up wherever its face had slid to. The looks start behind where the part was let go, which
+//! placed part up). Farther short, but within the jam watch's reach of the drop, the part
+//! may lie in its slot or short of it, which the robot cannot tell: it stands and asks the
+//! server ([`ActionSource::placed_per_server`]), which sees the floor, and looks for the
+//! part only if the server shows it elsewhere or says nothing in time (a hold 34 mm short of
+//! machine B's input left the part in its slot, where the machine took it at once; the
+//! mission searched the dividers for it). One that let the magnet go farther than the jam
+//! watch's reach from the drop, and out of the pick slot, has the robot let the part go and
+//! grip it again centred on its plate, as after a jam: it coasted on meanwhile, and the
+//! magnet, back on, took the part up wherever its face had slid to. The looks start behind where the part was let go, which
 //! depends on who let it go ([`HeldMagnet`]): a robot turning as the hold began had turned on
 //! several degrees by then, and a Mega with its cable out turns on until its watchdog. A part
 //! that slips off the magnet while the robot drives is looked for, also near its drop: it lands
@@ -83,6 +89,13 @@ pub trait ActionSource {
     /// failed action.
     fn action_returned(&mut self, action: Action, now_us: u64) {
         self.action_done(action, false, now_us);
+    }
+    /// What the organisers' server shows of the pending action's part, in its answers to
+    /// requests sent at `since_us` or later: `Some(true)` where the action puts it (its drop
+    /// slot, or the output of the machine it was dropped at), `Some(false)` when not there,
+    /// `None` before such an answer. By default (no server) `None`.
+    fn placed_per_server(&self, _since_us: u64) -> Option<bool> {
+        None
     }
 }
 
@@ -186,6 +199,13 @@ pub struct MissionConfig {
     /// Most looks per search (at most [`MAX_LOOKS`]). Each takes about 3 s (a line-up and a
     /// 15 cm creep).
     pub regrip_looks: u32,
+    /// How long the robot stands for the server's word on a part a hold let go near its
+    /// drop, off its drop pose, before it looks for the part, s. 1.0: a snapshot is four
+    /// requests answered one after the other, tens of milliseconds each on a venue's Wi-Fi
+    /// (`[competition] poll_period_s`), and one lost datagram retried after the default
+    /// `[referee] request_timeout_ms` (0.4 s) still fits. A silent server costs this much,
+    /// then the search as before.
+    pub server_word_wait_s: f64,
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
     /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
@@ -231,6 +251,7 @@ impl Default for MissionConfig {
             regrip_backoff_m: 0.03,
             regrip_sweep_m: 0.03,
             regrip_looks: 5,
+            server_word_wait_s: 1.0,
             exit_on_route_after_pick: false,
             confirm_release: true,
             watch_carried_part: true,
@@ -313,6 +334,10 @@ pub enum MissionEvent {
     /// The core's hold let the carried part go away from its drop: the robot grips it again
     /// centred on its plate before it carries on ([`Mission::hold`]).
     LetGoInHold,
+    /// The core's hold let the carried part go near its drop but off its drop pose: the
+    /// robot stands until the server says whether the part lies in its slot
+    /// ([`MissionConfig::server_word_wait_s`]), and looks for it if not.
+    LetGoNearDrop,
     /// The part that fell off is held again; the robot carries on to the drop.
     Regripped,
     /// The carried part stopped getting closer to its drop (`mission::jam`): the robot backs off,
@@ -368,6 +393,9 @@ pub enum Activity {
     Releasing,
     /// Looking for a part that fell off the magnet on the way.
     Regripping,
+    /// Standing still until the server says whether a part let go near its drop lies in
+    /// its slot.
+    AwaitingServer,
     /// Nothing left to do.
     Finished,
 }
@@ -408,6 +436,14 @@ enum State {
     },
     /// The part fell off: looking for it (the search is the mission's `search`).
     Regripping { action: Action },
+    /// A hold let the part go near its drop but off its drop pose, and the switch opened
+    /// at `lost_us`: standing still since `since_us`, waiting for the server's answer on
+    /// whether the part lies in its slot.
+    AwaitingServer {
+        action: Action,
+        since_us: u64,
+        lost_us: u64,
+    },
     /// Magnet off, waiting for the part to settle; `then`: what follows the back-out.
     Releasing { then: AfterBackOut, since_us: u64 },
     /// Nothing left: stopped.
@@ -614,6 +650,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             },
             State::Releasing { .. } => Activity::Releasing,
             State::Regripping { .. } => Activity::Regripping,
+            State::AwaitingServer { .. } => Activity::AwaitingServer,
             State::Finished => Activity::Finished,
         }
     }
@@ -690,7 +727,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         match &mut self.state {
             State::ToPick { since_us, .. }
             | State::BackingOut { since_us, .. }
-            | State::Releasing { since_us, .. } => later(since_us),
+            | State::Releasing { since_us, .. }
+            | State::AwaitingServer { since_us, .. } => later(since_us),
             // The hold let the magnet go: it settles again from now.
             State::Gripping { since_us, .. } => *since_us = now_us,
             // The switch's state from before the hold says nothing of the part now.
@@ -747,13 +785,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         else {
             return;
         };
-        let within = |slot: WaypointId, radius_m: f64| {
-            self.slot_poses
-                .get(&slot)
-                .is_some_and(|slot| slot.position().distance(pose.position()) <= radius_m)
-        };
-        let near_drop = within(action.drop, jam::WATCH_RADIUS_M);
-        let in_pick_slot = within(action.pick, SLOT_EXIT_M);
+        let near_drop = self.within(action.drop, pose, jam::WATCH_RADIUS_M);
+        let in_pick_slot = self.within(action.pick, pose, SLOT_EXIT_M);
         if !self.config.watch_carried_part || near_drop || in_pick_slot {
             return;
         }
@@ -769,6 +802,34 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             self.search = Some(search);
             self.state = State::Regripping { action };
         }
+    }
+
+    /// Whether a robot at `pose` stands within `radius_m` of `slot`'s pick pose (false for a
+    /// slot whose pose the mission does not know).
+    fn within(&self, slot: WaypointId, pose: Pose2, radius_m: f64) -> bool {
+        self.slot_poses
+            .get(&slot)
+            .is_some_and(|slot| slot.position().distance(pose.position()) <= radius_m)
+    }
+
+    /// The part carried for `action` left the magnet at `lost_us` (the switch opened), the
+    /// robot now at `pose`: look for it where it was last held.
+    fn look_for_lost_part(
+        &mut self,
+        action: Action,
+        pose: Pose2,
+        lost_us: u64,
+        events: &mut Vec<MissionEvent>,
+    ) {
+        events.push(MissionEvent::PartSlipped);
+        self.search = Some(Search::new(
+            &self.trail,
+            pose,
+            lost_us,
+            &self.config,
+            &self.floor,
+        ));
+        self.state = State::Regripping { action };
     }
 
     /// Whether the part carried to `drop` is jammed short of it ([`jam`]), the robot at
@@ -1189,15 +1250,17 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         self.state = State::Idle;
                         return stop;
                     }
-                    events.push(MissionEvent::PartSlipped);
-                    self.search = Some(Search::new(
-                        &self.trail,
-                        pose,
-                        open_us,
-                        &self.config,
-                        &self.floor,
-                    ));
-                    self.state = State::Regripping { action };
+                    if after_hold && self.within(action.drop, pose, jam::WATCH_RADIUS_M) {
+                        // Let go near the drop: it may lie in its slot, which the server sees.
+                        events.push(MissionEvent::LetGoNearDrop);
+                        self.state = State::AwaitingServer {
+                            action,
+                            since_us: now_us,
+                            lost_us: open_us,
+                        };
+                        return stop;
+                    }
+                    self.look_for_lost_part(action, pose, open_us, events);
                     return stop;
                 }
                 self.state = State::ToDrop {
@@ -1253,6 +1316,28 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 }
             }
             State::Regripping { action } => self.regrip(action, now_us, pose, switch, events),
+            State::AwaitingServer {
+                action,
+                since_us,
+                lost_us,
+            } => {
+                let waited_s = Self::elapsed_s(now_us, since_us);
+                match self.actions.placed_per_server(lost_us) {
+                    Some(true) => {
+                        self.solenoid_on = false;
+                        self.state = State::Releasing {
+                            then: Self::after_release(action, false),
+                            since_us: now_us,
+                        };
+                    }
+                    Some(false) => self.look_for_lost_part(action, pose, lost_us, events),
+                    None if waited_s >= self.config.server_word_wait_s => {
+                        self.look_for_lost_part(action, pose, lost_us, events);
+                    }
+                    None => {}
+                }
+                stop
+            }
             State::Releasing { then, since_us } => {
                 if Self::elapsed_s(now_us, since_us) >= self.config.release_settle_s {
                     self.state = State::BackingOut {
@@ -1342,6 +1427,8 @@ mod tests {
         outcomes: Vec<(Action, bool)>,
         /// Actions whose part was taken back to its pick slot.
         returned: Vec<Action>,
+        /// What the server shows of a part let go ([`ActionSource::placed_per_server`]).
+        server_word: Option<bool>,
     }
 
     impl ActionSource for Script {
@@ -1360,6 +1447,10 @@ mod tests {
         fn action_returned(&mut self, action: Action, now_us: u64) {
             self.returned.push(action);
             self.action_done(action, false, now_us);
+        }
+
+        fn placed_per_server(&self, _since_us: u64) -> Option<bool> {
+            self.server_word
         }
     }
 
@@ -1724,39 +1815,52 @@ mod tests {
     /// Part slip, round 2 at seed 4: the part fell off the moving robot 3 cm short of machine
     /// B's input and was taken for placed, where it lay unscored; a part that falls off
     /// while the robot drives is looked for, also at its drop pose.
+    /// Action `A` with the drop's pick pose in `slot_poses`, the switch opening after two
+    /// ticks of the carry: with `held`, during ten ticks in which the core holds the robot
+    /// (and lets the magnet go); without, as it drives on. The robot stops where it finds
+    /// the loss; the server says `server_word` of the part. The mission after 1500 ticks,
+    /// its events and where the carry stopped.
+    fn carry_opening_the_switch(
+        slot_poses: BTreeMap<WaypointId, Pose2>,
+        held: bool,
+        server_word: Option<bool>,
+    ) -> (
+        Mission<FakeNavigator, Script>,
+        Vec<MissionEvent>,
+        Option<Pose2>,
+    ) {
+        let mut m = mission_with_slots(vec![A], slot_poses);
+        m.navigator.extra_ticks = 20;
+        m.actions.server_word = server_word;
+        let (mut carry_ticks, mut held_ticks, mut stopped_at) = (0, 0, None);
+        let (mut events, mut pose) = (Vec::new(), Pose2::default());
+        for k in 0..1500u32 {
+            let now = u64::from(k) * 20_000;
+            let carrying = matches!(m.state, State::ToDrop { .. });
+            if carrying && held && carry_ticks == 2 && held_ticks < 10 {
+                m.hold(now, pose, HeldMagnet::LetGoByCore);
+                held_ticks += 1;
+                continue;
+            }
+            let pressed = match m.state {
+                State::ToPick { .. } | State::Gripping { .. } => true,
+                State::ToDrop { .. } => {
+                    carry_ticks += 1;
+                    stopped_at = Some(pose);
+                    m.solenoid_on && carry_ticks < 3
+                }
+                _ => false,
+            };
+            let out = m.tick(now, pose, pressed);
+            pose = moved(pose, out.twist);
+            events.extend(out.events);
+        }
+        (m, events, stopped_at)
+    }
+
     #[test]
     fn a_part_let_go_in_a_hold_at_its_drop_pose_is_placed_and_one_that_slipped_looked_for() {
-        // After two ticks of the carry the switch opens: with `held`, during ten ticks in
-        // which the core holds the robot (and lets the magnet go); without, as it drives on.
-        // The robot stops where it finds the loss.
-        let run = |slot_poses: BTreeMap<WaypointId, Pose2>, held: bool| {
-            let mut m = mission_with_slots(vec![A], slot_poses);
-            m.navigator.extra_ticks = 20;
-            let (mut carry_ticks, mut held_ticks, mut stopped_at) = (0, 0, None);
-            let (mut events, mut pose) = (Vec::new(), Pose2::default());
-            for k in 0..1500u32 {
-                let now = u64::from(k) * 20_000;
-                let carrying = matches!(m.state, State::ToDrop { .. });
-                if carrying && held && carry_ticks == 2 && held_ticks < 10 {
-                    m.hold(now, pose, HeldMagnet::LetGoByCore);
-                    held_ticks += 1;
-                    continue;
-                }
-                let pressed = match m.state {
-                    State::ToPick { .. } | State::Gripping { .. } => true,
-                    State::ToDrop { .. } => {
-                        carry_ticks += 1;
-                        stopped_at = Some(pose);
-                        m.solenoid_on && carry_ticks < 3
-                    }
-                    _ => false,
-                };
-                let out = m.tick(now, pose, pressed);
-                pose = moved(pose, out.twist);
-                events.extend(out.events);
-            }
-            (m, events, stopped_at)
-        };
+        let run = |slot_poses, held| carry_opening_the_switch(slot_poses, held, None);
         for held in [true, false] {
             let robot = run(BTreeMap::new(), held).2.unwrap();
             // The drop's pick pose `offset` from where the robot found the part gone.
@@ -1782,6 +1886,40 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Lidar replug, round 3 at seed 15: the core held the robot as it docked a part 34 mm
+    /// short of machine B's lower input and let the magnet go; the part landed in its slot
+    /// and scored, and the machine moved it to its output at once. The robot stood farther
+    /// than [`LET_GO_SHORT_OF_DROP_M`] short, so the mission looked for the part among the
+    /// input's dividers (five collisions) and gave the placed part up. A part a hold let go
+    /// near its drop is now placed when the server shows it placed, and looked for when the
+    /// server shows it elsewhere or says nothing for `server_word_wait_s`.
+    #[test]
+    fn a_part_let_go_in_a_hold_near_its_drop_is_placed_when_the_server_shows_it_there() {
+        let robot = carry_opening_the_switch(BTreeMap::new(), true, None)
+            .2
+            .unwrap();
+        let drop_ahead =
+            |m: f64| BTreeMap::from([(A.drop, robot.compose(Pose2::new(m, 0.0, 0.0)))]);
+        for (server_word, placed) in [(Some(true), true), (Some(false), false), (None, false)] {
+            let (m, events, _) = carry_opening_the_switch(drop_ahead(0.04), true, server_word);
+            assert!(events.contains(&MissionEvent::LetGoNearDrop), "{events:?}");
+            assert_eq!(
+                events.contains(&MissionEvent::PartSlipped),
+                !placed,
+                "{server_word:?}: {events:?}"
+            );
+            assert_eq!(
+                events.contains(&MissionEvent::Placed { slot: A.drop }),
+                placed
+            );
+            assert_eq!(m.actions().outcomes, [(A, placed)], "{server_word:?}");
+        }
+        // Beyond the jam watch's reach the part is gripped again, the server not asked.
+        let (_, events, _) = carry_opening_the_switch(drop_ahead(0.5), true, Some(true));
+        assert!(events.contains(&MissionEvent::LetGoInHold), "{events:?}");
+        assert!(!events.contains(&MissionEvent::LetGoNearDrop), "{events:?}");
     }
 
     #[test]

@@ -123,7 +123,8 @@ impl CollisionClassifier {
                 Event::Placed { .. }
                 | Event::Skipped { .. }
                 | Event::PartSlipped { .. }
-                | Event::PartLetGoInHold { .. } => self.doing = Doing::Elsewhere,
+                | Event::PartLetGoInHold { .. }
+                | Event::PartLetGoNearDrop { .. } => self.doing = Doing::Elsewhere,
                 _ => {}
             },
             RoundEvent::Collision(collision) => self.class(collision),

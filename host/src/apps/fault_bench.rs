@@ -273,6 +273,7 @@ fn story_line(field: &Field, event: &RoundEvent) -> Option<String> {
             | Event::PartSlipped { .. }
             | Event::PartJammed { .. }
             | Event::PartLetGoInHold { .. }
+            | Event::PartLetGoNearDrop { .. }
             | Event::Regripped { .. }
             | Event::Placed { .. }
             | Event::Skipped { .. }

@@ -136,7 +136,7 @@ impl Tap for TimeSplitTap {
             return;
         };
         let class = match activity {
-            Activity::Planning | Activity::Finished => Class::Waiting,
+            Activity::Planning | Activity::AwaitingServer | Activity::Finished => Class::Waiting,
             Activity::Gripping | Activity::Releasing => Class::Settling,
             Activity::BackingOut | Activity::Regripping => Class::Docking,
             Activity::ToPick { slot } | Activity::ToDrop { slot } => {

@@ -47,9 +47,10 @@ pub fn event_kind(event: &Event) -> &'static str {
         Event::ActionStarted { attempt, .. } if *attempt > 1 => "retry",
         Event::ActionStarted { .. } => "action",
         Event::Picked { .. } | Event::Regripped { .. } => "pick",
-        Event::PartSlipped { .. } | Event::PartJammed { .. } | Event::PartLetGoInHold { .. } => {
-            "fault"
-        }
+        Event::PartSlipped { .. }
+        | Event::PartJammed { .. }
+        | Event::PartLetGoInHold { .. }
+        | Event::PartLetGoNearDrop { .. } => "fault",
         Event::Placed { .. } => "drop",
         Event::Skipped { .. } => "skip",
         Event::Finished => "finished",

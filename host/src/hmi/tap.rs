@@ -132,7 +132,8 @@ impl HmiTap {
             }
             Event::PartSlipped { .. }
             | Event::PartJammed { .. }
-            | Event::PartLetGoInHold { .. } => self.carrying = None,
+            | Event::PartLetGoInHold { .. }
+            | Event::PartLetGoNearDrop { .. } => self.carrying = None,
             Event::Regripped { color } => self.carrying = Some(*color),
             Event::Skipped { .. } | Event::Finished => {
                 self.action = None;

@@ -250,6 +250,14 @@ impl MissionConfig {
             "each look takes about 3 s; the search keeps at most this many",
         );
         c.within(
+            "server_word_wait_s",
+            self.server_word_wait_s,
+            0.0,
+            30.0,
+            "s",
+            "the robot stands still meanwhile: longer than a few tries of a request is a round lost",
+        );
+        c.within(
             "regrip_speed_m_s",
             self.regrip_speed_m_s,
             0.01,

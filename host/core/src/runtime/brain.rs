@@ -201,11 +201,17 @@ impl Brain {
                     }
                     events.push(describe(mission.actions(), event));
                 }
-                // Read the server while the floor is as the planner knows it.
+                // Read the server while the floor is as the planner knows it, or while the
+                // mission waits for its word on a part let go near its drop.
+                let awaiting = mission.activity() == Activity::AwaitingServer;
                 if !mission.is_before_pick() {
                     mission.actions_mut().picking(now_us);
-                    self.snapshots.restart();
-                } else if self.tracker.ready(now_us)
+                    if !awaiting {
+                        self.snapshots.restart();
+                    }
+                }
+                if (mission.is_before_pick() || awaiting)
+                    && self.tracker.ready(now_us)
                     && let Some(request) = self.snapshots.request_due(now_us)
                 {
                     out.request = start(&mut self.tracker, request, now_us);
@@ -326,6 +332,7 @@ fn describe(actions: &TaskActions, event: MissionEvent) -> Event {
         MissionEvent::Regripped => Event::Regripped { color },
         MissionEvent::Jammed => Event::PartJammed { color },
         MissionEvent::LetGoInHold => Event::PartLetGoInHold { color },
+        MissionEvent::LetGoNearDrop => Event::PartLetGoNearDrop { color },
         MissionEvent::Skipped { action, reason } => Event::Skipped {
             pick: action.pick,
             drop: action.drop,

@@ -66,6 +66,13 @@ pub enum Event {
         /// Its colour as the planner knows it.
         color: Option<PartColor>,
     },
+    /// The core's hold let the carried part go near its drop but off its drop pose
+    /// (`mission`, "Held"): the robot stands until the server says whether the part lies in
+    /// its slot, and looks for it if not.
+    PartLetGoNearDrop {
+        /// Its colour as the planner knows it.
+        color: Option<PartColor>,
+    },
     /// The part that fell off is held again.
     Regripped {
         /// Its colour as the planner knows it.
@@ -245,6 +252,10 @@ impl Event {
             ),
             Self::PartLetGoInHold { color } => format!(
                 "the hold let the {} part go on the way: gripping it again centred",
+                color_word(*color)
+            ),
+            Self::PartLetGoNearDrop { color } => format!(
+                "the hold let the {} part go near its drop: asking the server whether it lies there",
                 color_word(*color)
             ),
             Self::Regripped { color } => {
