@@ -653,24 +653,28 @@ impl World {
         )
     }
 
-    /// The picks the parts' places crowd: (slot, part) for each standing part that the
+    /// The picks the parts' places crowd: (slot, part) for each part not held that the
     /// robot's true outline, grown by `margin_m` on every side, would overlap as it reaches
     /// the part in `slot` — square on the slot's centre line (the robot cannot see where a
     /// part stands across its slot), its magnet's face on the part's nearest point. A
     /// neighbour standing out of its slot further than the body's front reaches there
     /// (margin 0) is touched by any robot of this outline picking that slot square; the harsh
     /// world draws such places (parts up to 15 mm off the back wall and 8° turned,
-    /// real-world-errors.md §9). Taken where the parts stand now (at the start, as the
-    /// referee placed them).
+    /// real-world-errors.md §9), and so does a part knocked out of its slot onto the floor
+    /// (the fault bench's knocked part: 10–30 mm out, up to 8° turned). Taken where the parts
+    /// stand now.
     pub fn crowded_picks(&self, margin_m: f64) -> Vec<(WaypointId, usize)> {
         let parts = self.shop.parts();
+        let footprint = |part: usize| self.shop.footprint(part, self.body.pose);
         let standing: Vec<(usize, WaypointId, OrientedRect)> = (0..parts.len())
             .filter_map(|part| match parts[part].place {
-                PartPlace::Slot(slot) => {
-                    Some((part, slot, self.shop.footprint(part, self.body.pose)))
-                }
+                PartPlace::Slot(slot) => Some((part, slot, footprint(part))),
                 _ => None,
             })
+            .collect();
+        let not_held: Vec<(usize, OrientedRect)> = (0..parts.len())
+            .filter(|&part| !matches!(parts[part].place, PartPlace::Carried(_)))
+            .map(|part| (part, footprint(part)))
             .collect();
         let magnet_m = self.shop.gripper().magnet_m;
         let r = &self.config.robot;
@@ -694,12 +698,12 @@ impl World {
                 r.footprint_width_m + 2.0 * margin_m,
             );
             crowded.extend(
-                standing
+                not_held
                     .iter()
-                    .filter(|&&(other, _, other_rect)| {
+                    .filter(|&&(other, other_rect)| {
                         other != target && push_out(&body, &Shape::Rect(other_rect)).is_some()
                     })
-                    .map(|&(other, _, _)| (slot_id, other)),
+                    .map(|&(other, _)| (slot_id, other)),
             );
         }
         crowded
@@ -1608,5 +1612,22 @@ mod tests {
         assert_eq!(seated_world(0.005, 0.0).crowded_picks(0.009), vec![]);
         let within = seated_world(0.005, 0.0).crowded_picks(0.011);
         assert_eq!(within, vec![(WaypointId(50), 1), (WaypointId(52), 1)]);
+    }
+
+    /// The fault bench's knocked part lies on the floor, no longer in its slot: it crowded
+    /// no pick, and the knocked-part row counted none of its 45 contacts as crowded.
+    #[test]
+    fn a_part_knocked_onto_the_floor_crowds_the_picks_beside_it() {
+        let mut world = seated_world(0.0, 0.0);
+        let seat = world.shop.footprint(1, world.body.pose).pose;
+        // The plate faces out of the slot along the part's +x: 25 mm out, turned 5°.
+        world.put_part_on_floor(1, seat.compose(Pose2::new(0.025, 0.0, 0.087)));
+        assert_eq!(
+            world.crowded_picks(0.0),
+            vec![(WaypointId(50), 1), (WaypointId(52), 1)]
+        );
+        // Knocked 5 mm out, square, it leaves the body 10 mm.
+        world.put_part_on_floor(1, seat.compose(Pose2::new(0.005, 0.0, 0.0)));
+        assert_eq!(world.crowded_picks(0.0), vec![]);
     }
 }

@@ -7,8 +7,8 @@
 //!
 //! | class | what |
 //! |---|---|
-//! | crowded neighbour | a part standing beside the slot the robot was going to pick, where the parts' places crowd that pick (`ratf_sim::World::crowded_picks`: the body, square on the slot's line with its magnet on the part, overlaps it) |
-//! | part | any other part (a neighbour that does not crowd the pick, a part knocked out before, a part on the floor or in the outgoing warehouse) |
+//! | crowded neighbour | a part beside the slot the robot was going to pick, in its slot or knocked out of it onto the floor, where the parts' places crowd that pick (`ratf_sim::World::crowded_picks`: the body, square on the slot's line with its magnet on the part, overlaps it) |
+//! | part | any other part (a neighbour that does not crowd the pick, a part elsewhere on the floor or in the outgoing warehouse) |
 //! | warehouse | a warehouse's back wall or divider |
 //! | machine | a machine block's wall or divider |
 //! | pole | a beacon's pole |
