@@ -157,3 +157,27 @@ fn the_bound_plans_for_a_second_magnet_that_the_robot_does_not_yet_drive() {
     assert!(from_file.status.success());
     assert_eq!(last_json_line(&from_file.stdout), two);
 }
+
+/// `ratf run` builds the core before it opens any device: building it plans the route times
+/// (0.8–1.0 s on a PC), and the devices' clock and threads, opened first, queued that long
+/// behind the first tick (in a 2-minute soak each round's slowest reference write came
+/// 0.56–0.78 s late; 12–17 ms with the core first). So a configuration the core refuses is
+/// reported before the missing devices are.
+#[test]
+fn a_configuration_the_core_refuses_is_reported_before_any_device_is_opened() {
+    let dir = std::env::temp_dir().join(format!("ratf-run-order-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary folder");
+    let config = dir.join("robot.toml");
+    std::fs::write(
+        &config,
+        "[robot]\nmagnet_faces = [\"front\", \"back\"]\n\
+         [link]\nmega_port = \"/nonexistent/mega\"\nlidar_port = \"/nonexistent/lidar\"\n",
+    )
+    .expect("config written");
+    let output = ratf(["run", "--config", arg(&config)]);
+    let _ = std::fs::remove_dir_all(&dir);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "{stderr}");
+    assert!(stderr.contains("task planner"), "{stderr}");
+    assert!(!stderr.contains("no such device"), "{stderr}");
+}

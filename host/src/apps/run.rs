@@ -467,6 +467,10 @@ pub fn run_robot_with(
         .map(|parts| Input::Operator(OperatorCommand::ForceStart { parts }))
         .into_iter()
         .collect();
+    // The core first: building it plans the route times (0.8–1.0 s on a PC), and the
+    // devices' clock and threads, once open, would queue that long behind its first tick.
+    let start_pose = Field::competition().start_pose();
+    let mut core = Core::new(config, start_pose)?;
     let OpenDevices {
         devices,
         running:
@@ -477,8 +481,6 @@ pub fn run_robot_with(
                 threads,
             },
     } = open_devices(config, shared, initial)?;
-    let start_pose = Field::competition().start_pose();
-    let mut core = Core::new(config, start_pose)?;
     let session = Session {
         kind: "robot".to_owned(),
         config_toml: config.to_toml_string().map_err(|e| {
