@@ -225,12 +225,16 @@ impl TaskActions {
         self.since_us = now_us;
         self.picking_us = None;
         let (pending, part) = self.pending.take()?;
-        let index = self
-            .state
+        Some((pending, part, self.index_of(pending, part)))
+    }
+
+    /// Where `part`, as it was when `pending` was planned, stands in the state now (a
+    /// snapshot may have changed the indices).
+    fn index_of(&self, pending: tasks::Action, part: PartState) -> Option<usize> {
+        self.state
             .parts
             .iter()
-            .position(|p| p.place == pending.from && p.color == part.color);
-        Some((pending, part, index))
+            .position(|p| p.place == pending.from && p.color == part.color)
     }
 }
 
@@ -328,11 +332,7 @@ impl ActionSource for TaskActions {
     fn placed_per_server(&self, since_us: u64) -> Option<bool> {
         let snapshot = self.newest_snapshot.filter(|s| s.sent_us >= since_us)?;
         let (pending, part) = self.pending?;
-        let index = self
-            .state
-            .parts
-            .iter()
-            .position(|p| p.place == pending.from && p.color == part.color)?;
+        let index = self.index_of(pending, part)?;
         let action = tasks::Action {
             part: index,
             ..pending
@@ -584,7 +584,7 @@ impl Navigator for RouteNavigator {
 mod tests {
     use super::*;
     use crate::field::PartColor;
-    use crate::field::stations::MachineKind;
+    use crate::planning::tasks::model::machine_area;
     use crate::planning::tasks::{
         BranchAndBound, Location, Original, Rules, StraightLineTimes, Timing,
     };
@@ -866,10 +866,7 @@ mod tests {
         }) else {
             panic!("a green part goes to a machine: {action:?}");
         };
-        let area = match kind {
-            MachineKind::A => 2,
-            MachineKind::B => 3,
-        };
+        let area = machine_area(kind);
         actions.picking(S);
         let let_go_us = 5 * S;
         let answer = |areas| snapshot(areas, let_go_us, let_go_us + S / 10);

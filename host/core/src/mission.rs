@@ -970,6 +970,16 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     }
 
     /// What follows letting a part go at its carry's target.
+    /// Let the part carried for `action` go where it stands at `now_us` (its drop, or its
+    /// pick slot when `returning`), and settle before the back-out.
+    fn release(&mut self, action: Action, returning: bool, now_us: u64) {
+        self.solenoid_on = false;
+        self.state = State::Releasing {
+            then: Self::after_release(action, returning),
+            since_us: now_us,
+        };
+    }
+
     fn after_release(action: Action, returning: bool) -> AfterBackOut {
         if returning {
             AfterBackOut::Returned {
@@ -1236,11 +1246,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 {
                     if after_hold && self.at_drop(pose, target) {
                         // Let go at the drop (a hold took the magnet): the part is in its slot.
-                        self.solenoid_on = false;
-                        self.state = State::Releasing {
-                            then: Self::after_release(action, returning),
-                            since_us: now_us,
-                        };
+                        self.release(action, returning, now_us);
                         return stop;
                     }
                     if returning {
@@ -1295,11 +1301,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         self.advance(now_us, pose, switch, events)
                     }
                     Arrival::Arrived | Arrival::Docked => {
-                        self.solenoid_on = false;
-                        self.state = State::Releasing {
-                            then: Self::after_release(action, returning),
-                            since_us: now_us,
-                        };
+                        self.release(action, returning, now_us);
                         stop
                     }
                     Arrival::Failed => {
@@ -1324,11 +1326,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 let waited_s = Self::elapsed_s(now_us, since_us);
                 match self.actions.placed_per_server(lost_us) {
                     Some(true) => {
-                        self.solenoid_on = false;
-                        self.state = State::Releasing {
-                            then: Self::after_release(action, false),
-                            since_us: now_us,
-                        };
+                        self.release(action, false, now_us);
                     }
                     Some(false) => self.look_for_lost_part(action, pose, lost_us, events),
                     None if waited_s >= self.config.server_word_wait_s => {

@@ -343,7 +343,7 @@ impl State {
 }
 
 /// The index of machine `kind`'s strings in [`State::to_server_areas`] (`MAP`, `MBP`).
-fn machine_area(kind: MachineKind) -> usize {
+pub(crate) fn machine_area(kind: MachineKind) -> usize {
     match kind {
         MachineKind::A => 2,
         MachineKind::B => 3,
