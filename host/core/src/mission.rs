@@ -1033,7 +1033,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     ) -> BodyTwist {
         let step = match self.search.as_mut() {
             Some(search) => {
-                let step = search.tick(now_us, pose, switch, &self.config);
+                let step = search.tick(now_us, pose, switch, &self.config, &self.floor);
                 self.solenoid_on = search.magnet_on();
                 step
             }

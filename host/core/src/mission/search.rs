@@ -33,7 +33,9 @@
 //! the loss, the magnet on, is a part the face carried on: the magnet takes it up there.)
 //! Both edges are read with the same estimate lag and the same speed, in opposite
 //! directions, so the lag cancels in the midpoint. The robot holds its line a centimetre
-//! on into the plate meanwhile, so the lever stays on it. A strafe that finds no edge
+//! on into the plate meanwhile, so the lever stays on it: less where that would bring the
+//! body within [`LOOK_CLEARANCE_M`] of a divider (a part that fell back into its slot's
+//! mouth is found with the face a few millimetres off the dividers' tips). A strafe that finds no edge
 //! (blocked, or out of its span) grips where the switch first closed, as without centring;
 //! a grip that does not hold (the part moved meanwhile) goes on to the next look.
 //!
@@ -174,17 +176,20 @@ enum Phase {
     /// The switch closed with the robot at `origin`: magnet off, strafing along `origin`'s
     /// left (+y) until the switch opens at the plate's first edge, then to the right until
     /// it opens at the second; `first_edge_m`: the first edge across `origin`, m;
-    /// `closed`: the switch read closed since the strafe began; at most until `limit_us`.
+    /// `closed`: the switch read closed since the strafe began; at most until `limit_us`;
+    /// the robot holds its line `press_m` on from `origin` ([`centre_press_m`]).
     Centring {
         origin: Pose2,
+        press_m: f64,
         first_edge_m: Option<f64>,
         closed: bool,
         limit_us: u64,
     },
     /// Magnet off, strafing to `across_m` across `origin` (midway between the edges), for
-    /// at most until `limit_us`.
+    /// at most until `limit_us`, on the line `press_m` on from `origin`.
     ToMiddle {
         origin: Pose2,
+        press_m: f64,
         across_m: f64,
         limit_us: u64,
     },
@@ -346,6 +351,7 @@ impl Search {
         pose: Pose2,
         switch: bool,
         config: &MissionConfig,
+        floor: &FreeSpace,
     ) -> Step {
         let stop = Step::Searching(BodyTwist::default());
         let elapsed_s = now_us.saturating_sub(self.since_us) as f64 * 1e-6;
@@ -374,6 +380,7 @@ impl Search {
                 self.enter(
                     Phase::Centring {
                         origin: pose,
+                        press_m: centre_press_m(floor, pose),
                         first_edge_m: None,
                         closed: true,
                         limit_us,
@@ -454,6 +461,7 @@ impl Search {
         match self.phase {
             Phase::Centring {
                 origin,
+                press_m,
                 first_edge_m,
                 closed,
                 limit_us,
@@ -465,6 +473,7 @@ impl Search {
                         // The first edge: now strafe back across the plate to the other.
                         self.phase = Phase::Centring {
                             origin,
+                            press_m,
                             first_edge_m: Some(across),
                             closed: false,
                             limit_us: now_us + centre_limit_us(across + CENTRE_SPAN_M),
@@ -484,6 +493,7 @@ impl Search {
                     self.enter(
                         Phase::ToMiddle {
                             origin,
+                            press_m,
                             across_m,
                             limit_us,
                         },
@@ -493,21 +503,18 @@ impl Search {
                 }
                 self.phase = Phase::Centring {
                     origin,
+                    press_m,
                     first_edge_m,
                     closed,
                     limit_us,
                 };
                 let side = if first_edge_m.is_none() { 1.0 } else { -1.0 };
-                let twist = hold_line(
-                    origin,
-                    pose,
-                    along - CENTRE_PRESS_M,
-                    side * CENTRE_SPEED_M_S,
-                );
+                let twist = hold_line(origin, pose, along - press_m, side * CENTRE_SPEED_M_S);
                 Step::Searching(twist)
             }
             Phase::ToMiddle {
                 origin,
+                press_m,
                 across_m,
                 limit_us,
             } => {
@@ -518,7 +525,7 @@ impl Search {
                     return stop;
                 }
                 let speed = (GAIN_PER_S * error).clamp(-CENTRE_SPEED_M_S, CENTRE_SPEED_M_S);
-                Step::Searching(hold_line(origin, pose, along - CENTRE_PRESS_M, speed))
+                Step::Searching(hold_line(origin, pose, along - press_m, speed))
             }
             _ => stop,
         }
@@ -548,6 +555,25 @@ impl Search {
         let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
         self.enter(Phase::LiningUp { limit_us }, now_us);
     }
+}
+
+/// How far on from `origin` (where the switch closed) the robot holds its line while it
+/// centres, m: [`CENTRE_PRESS_M`], or less where the body would come within `floor`'s margin
+/// of a wall, divider or pole (a part that fell back into its slot is found with the face near
+/// the dividers' tips: pressed on, the strafe met a divider's side). Checked on `origin`'s
+/// line and at the far ends of the strafes, each where the body stands clear to begin with:
+/// a body already within the margin (a part found against a drop's dividers) presses on as
+/// before, since holding back there lifted the lever off the plate.
+fn centre_press_m(floor: &FreeSpace, origin: Pose2) -> f64 {
+    if !floor.pose_is_free(origin) {
+        return CENTRE_PRESS_M;
+    }
+    [-CENTRE_SPAN_M, 0.0, CENTRE_SPAN_M]
+        .into_iter()
+        .map(|across_m| origin.compose(Pose2::new(0.0, across_m, 0.0)))
+        .filter(|&start| floor.pose_is_free(start))
+        .map(|start| floor.free_ahead_m(start, CENTRE_PRESS_M, floor.margin_m()))
+        .fold(CENTRE_PRESS_M, f64::min)
 }
 
 /// The time limit of a centring strafe over `span_m`: twice its time at
@@ -678,6 +704,56 @@ mod tests {
         assert!((first.reach_m + from_wanted_m - config.regrip_reach_m).abs() < 1e-9);
     }
 
+    /// The bug this guards: a part that fell off as the robot left incoming slot 4 lay back
+    /// in the slot's mouth, and the creep found it 4 mm short of the pick pose (5 mm off the
+    /// dividers' tips). Centring pressed 1 cm on from there, 1 mm past the tips, and the
+    /// strafe met a divider's side (fault bench, part slip, round 1 seed 62).
+    #[test]
+    fn centring_on_a_part_in_its_slot_s_mouth_keeps_the_body_off_the_dividers() {
+        let config = MissionConfig::default();
+        let field = Field::competition();
+        let pick = field.incoming_slot(3).expect("incoming slot 4").pick_pose;
+        let found = pick.compose(Pose2::new(-0.004, 0.0, 0.0));
+        let mut trail = Trail::default();
+        trail.push(0, pick.compose(Pose2::new(-0.06, 0.0, 0.0)));
+        let mut search = Search::new(&trail, found, 0, &config, &floor());
+        // The switch closes while the robot creeps: centring begins where it stands.
+        search.phase = Phase::Creeping {
+            best_m: 0.0,
+            best_us: 0,
+        };
+        let mut pose = found;
+        let plate_centre = found.compose(Pose2::new(0.0, 0.012, 0.0));
+        let dt_s = 0.02;
+        let mut centred = false;
+        for k in 0..1000u64 {
+            // The lever touches the 80 mm plate within its width.
+            let across = plate_centre.relative(pose).y;
+            let switch = across.abs() <= 0.04;
+            match search.tick(k * 20_000, pose, switch, &config, &floor()) {
+                Step::Searching(twist) => {
+                    let step = Pose2::new(
+                        twist.vx_m_s * dt_s,
+                        twist.vy_m_s * dt_s,
+                        twist.omega_rad_s * dt_s,
+                    );
+                    pose = pose.compose(step);
+                }
+                Step::Found => {
+                    centred = true;
+                    break;
+                }
+                Step::Lost => break,
+            }
+            assert!(floor().pose_is_free(pose), "tick {k}: {pose:?} {search:?}");
+        }
+        assert!(centred, "{search:?}");
+        // Gripped midway between the plate's edges.
+        assert!(plate_centre.relative(pose).y.abs() < 0.005, "{pose:?}");
+        // In open floor the press stays 1 cm.
+        assert_eq!(centre_press_m(&floor(), OPEN), CENTRE_PRESS_M);
+    }
+
     #[test]
     fn with_every_look_against_a_wall_the_part_is_lost_after_braking() {
         let config = MissionConfig::default();
@@ -687,10 +763,13 @@ mod tests {
         trail.push(0, wall);
         let mut search = Search::new(&trail, wall, 0, &config, &floor());
         assert!(search.looks().is_empty());
-        let braking = search.tick(100_000, wall, false, &config);
+        let braking = search.tick(100_000, wall, false, &config, &floor());
         assert_eq!(braking, Step::Searching(BodyTwist::default()));
         let after_us = (config.regrip_brake_s * 1e6) as u64 + 1;
-        assert_eq!(search.tick(after_us, wall, false, &config), Step::Lost);
+        assert_eq!(
+            search.tick(after_us, wall, false, &config, &floor()),
+            Step::Lost
+        );
     }
 
     #[test]

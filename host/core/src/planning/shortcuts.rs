@@ -271,9 +271,22 @@ impl FreeSpace {
     /// the way, m: a multiple of [`AHEAD_STEP_M`] up to `up_to_m`, 0 when `from` itself is
     /// not free. For a reverse off a part found on the floor, kept short of the walls behind.
     pub fn free_reverse_m(&self, from: Pose2, up_to_m: f64, margin_m: f64) -> f64 {
+        self.free_along_m(from, -1.0, up_to_m, margin_m)
+    }
+
+    /// How far the footprint, grown by `margin_m`, can drive straight on from `from`, along
+    /// its heading and holding it, touching nothing on the way, m: a multiple of
+    /// [`AHEAD_STEP_M`] up to `up_to_m`, 0 when `from` itself is not free. For a press into
+    /// a part found before the face, kept short of the dividers beyond it.
+    pub fn free_ahead_m(&self, from: Pose2, up_to_m: f64, margin_m: f64) -> f64 {
+        self.free_along_m(from, 1.0, up_to_m, margin_m)
+    }
+
+    /// [`Self::free_ahead_m`] (`sign` 1) or [`Self::free_reverse_m`] (`sign` −1).
+    fn free_along_m(&self, from: Pose2, sign: f64, up_to_m: f64, margin_m: f64) -> f64 {
         let up_to_m = up_to_m.max(0.0);
         let free_at =
-            |d: f64| self.pose_is_free_with(from.compose(Pose2::new(-d, 0.0, 0.0)), margin_m);
+            |d: f64| self.pose_is_free_with(from.compose(Pose2::new(sign * d, 0.0, 0.0)), margin_m);
         if !free_at(0.0) {
             return 0.0;
         }
@@ -495,28 +508,34 @@ mod tests {
             }
         }
 
-        /// Every step of a free reverse is free, and the next step is not (unless the reverse
-        /// went the whole way); a start that is not free reverses nowhere.
+        /// Every step of a free reverse or drive on is free, and the next step is not (unless
+        /// it went the whole way); a start that is not free goes nowhere.
         #[test]
-        fn a_free_reverse_stops_at_the_first_pose_that_is_not(
+        fn a_free_reverse_or_drive_on_stops_at_the_first_pose_that_is_not(
             x in -0.8f64..0.8, y in -0.55f64..0.55, yaw in -3.2f64..3.2, up_to_m in 0.0f64..0.1,
+            ahead in proptest::bool::ANY,
         ) {
-            // The reverse's margin (1 cm) is not the space's (3 mm).
+            // The margin asked for (1 cm) is not the space's (3 mm).
             let free = space(BARE, 0.003);
             let margin = space(BARE, 0.01);
             let from = Pose2::new(x, y, yaw);
-            let at = |d: f64| from.compose(Pose2::new(-d, 0.0, 0.0));
-            let reverse_m = free.free_reverse_m(from, up_to_m, 0.01);
-            prop_assert!((0.0..=up_to_m).contains(&reverse_m));
-            if !margin.pose_is_free(from) {
-                prop_assert_eq!(reverse_m, 0.0);
+            let sign = if ahead { 1.0 } else { -1.0 };
+            let at = |d: f64| from.compose(Pose2::new(sign * d, 0.0, 0.0));
+            let went_m = if ahead {
+                free.free_ahead_m(from, up_to_m, 0.01)
             } else {
-                let steps = (reverse_m / AHEAD_STEP_M).round() as usize;
+                free.free_reverse_m(from, up_to_m, 0.01)
+            };
+            prop_assert!((0.0..=up_to_m).contains(&went_m));
+            if !margin.pose_is_free(from) {
+                prop_assert_eq!(went_m, 0.0);
+            } else {
+                let steps = (went_m / AHEAD_STEP_M).round() as usize;
                 for k in 0..=steps {
-                    prop_assert!(margin.pose_is_free(at((k as f64 * AHEAD_STEP_M).min(reverse_m))));
+                    prop_assert!(margin.pose_is_free(at((k as f64 * AHEAD_STEP_M).min(went_m))));
                 }
-                if reverse_m + 1e-12 < up_to_m {
-                    prop_assert!(!margin.pose_is_free(at((reverse_m + AHEAD_STEP_M).min(up_to_m))));
+                if went_m + 1e-12 < up_to_m {
+                    prop_assert!(!margin.pose_is_free(at((went_m + AHEAD_STEP_M).min(up_to_m))));
                 }
             }
         }
