@@ -969,7 +969,6 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         if returning { action.pick } else { action.drop }
     }
 
-    /// What follows letting a part go at its carry's target.
     /// Let the part carried for `action` go where it stands at `now_us` (its drop, or its
     /// pick slot when `returning`), and settle before the back-out.
     fn release(&mut self, action: Action, returning: bool, now_us: u64) {
@@ -980,6 +979,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         };
     }
 
+    /// What follows letting a part go at its carry's target.
     fn after_release(action: Action, returning: bool) -> AfterBackOut {
         if returning {
             AfterBackOut::Returned {

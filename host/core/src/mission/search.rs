@@ -35,9 +35,10 @@
 //! directions, so the lag cancels in the midpoint. The robot holds its line a centimetre
 //! on into the plate meanwhile, so the lever stays on it: less where that would bring the
 //! body within [`LOOK_CLEARANCE_M`] of a divider (a part that fell back into its slot's
-//! mouth is found with the face a few millimetres off the dividers' tips). A strafe that finds no edge
-//! (blocked, or out of its span) grips where the switch first closed, as without centring;
-//! a grip that does not hold (the part moved meanwhile) goes on to the next look.
+//! mouth is found with the face a few millimetres off the dividers' tips). A strafe that
+//! finds no edge (blocked, or out of its span) grips where the switch first closed, as
+//! without centring; a grip that does not hold (the part moved meanwhile) goes on to the
+//! next look.
 //!
 //! Collisions: every look starts a few centimetres from poses the robot stood at moments
 //! before with its heading (`regrip_backoff_m` behind, `regrip_sweep_m` to a side), and the
@@ -716,7 +717,8 @@ mod tests {
         let found = pick.compose(Pose2::new(-0.004, 0.0, 0.0));
         let mut trail = Trail::default();
         trail.push(0, pick.compose(Pose2::new(-0.06, 0.0, 0.0)));
-        let mut search = Search::new(&trail, found, 0, &config, &floor());
+        let floor = floor();
+        let mut search = Search::new(&trail, found, 0, &config, &floor);
         // The switch closes while the robot creeps: centring begins where it stands.
         search.phase = Phase::Creeping {
             best_m: 0.0,
@@ -730,7 +732,7 @@ mod tests {
             // The lever touches the 80 mm plate within its width.
             let across = plate_centre.relative(pose).y;
             let switch = across.abs() <= 0.04;
-            match search.tick(k * 20_000, pose, switch, &config, &floor()) {
+            match search.tick(k * 20_000, pose, switch, &config, &floor) {
                 Step::Searching(twist) => {
                     let step = Pose2::new(
                         twist.vx_m_s * dt_s,
@@ -745,13 +747,13 @@ mod tests {
                 }
                 Step::Lost => break,
             }
-            assert!(floor().pose_is_free(pose), "tick {k}: {pose:?} {search:?}");
+            assert!(floor.pose_is_free(pose), "tick {k}: {pose:?} {search:?}");
         }
         assert!(centred, "{search:?}");
         // Gripped midway between the plate's edges.
         assert!(plate_centre.relative(pose).y.abs() < 0.005, "{pose:?}");
         // In open floor the press stays 1 cm.
-        assert_eq!(centre_press_m(&floor(), OPEN), CENTRE_PRESS_M);
+        assert_eq!(centre_press_m(&floor, OPEN), CENTRE_PRESS_M);
     }
 
     #[test]
