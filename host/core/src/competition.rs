@@ -16,14 +16,17 @@ use crate::config::{Config, Policy as Driving};
 use crate::control::creep::{Creep, CreepLimits};
 use crate::control::follower::{Follower, PathFollower, Status};
 use crate::control::original::{OriginalFollower, OriginalParams};
-use crate::control::route::{LegPlanner, ORIGINAL_APPROACH_M, Route, plan_original_route};
+use crate::control::route::{
+    LegPlanner, ORIGINAL_APPROACH_M, Route, plan_original_route, stall_mark,
+};
 use crate::field::Field;
 use crate::field::PartColor;
-use crate::field::geometry::{Pose2, Vec2};
+use crate::field::geometry::{Pose2, Rect, Vec2};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
 use crate::mission::{Action, ActionSource, Arrival, Navigator};
 use crate::planning::graph::RoadMap;
+use crate::planning::shortcuts::Footprint;
 use crate::planning::tasks::{self, MAX_PARTS, Model, PartState, Place, Policy, State};
 use crate::referee::snapshot::ServerSnapshot;
 
@@ -383,6 +386,10 @@ pub struct RouteNavigator {
     /// Where the last part picked sits across the magnet, as the robot believes, m (robot
     /// frame, + to the left): [`held_part_across_m`] when its docking leg ended.
     held_part_across_m: f64,
+    /// The twist last commanded along the leg (its direction tells a stall's side).
+    last_twist: BodyTwist,
+    /// Marks left by stalled carries ([`stall_mark`]), planned round since.
+    marks: Vec<Rect>,
 }
 
 impl std::fmt::Debug for RouteNavigator {
@@ -441,6 +448,8 @@ impl RouteNavigator {
             route: None,
             docking_at: None,
             held_part_across_m: 0.0,
+            last_twist: BodyTwist::default(),
+            marks: Vec::new(),
         }
     }
 }
@@ -535,6 +544,22 @@ impl Navigator for RouteNavigator {
         self.follower.halted();
     }
 
+    fn blocked_here(&mut self, pose: Pose2) {
+        // Only a carry leaves a mark (the carried part's side is what met the unknown).
+        if self.dock || self.legs.is_none() {
+            return;
+        }
+        let travel = Vec2::new(self.last_twist.vx_m_s, self.last_twist.vy_m_s);
+        let footprint = Footprint::of_robot(&self.config.robot, true);
+        if let Some(mark) = stall_mark(&footprint, pose, travel) {
+            self.marks.push(mark);
+            self.legs = Some(Arc::new(LegPlanner::with_obstacles(
+                &self.config,
+                &self.marks,
+            )));
+        }
+    }
+
     fn gripped_centred(&mut self) {
         self.docking_at = None;
         self.held_part_across_m = 0.0;
@@ -576,6 +601,7 @@ impl Navigator for RouteNavigator {
                 Arrival::Arrived
             }
         };
+        self.last_twist = command.twist;
         (command.twist, arrival)
     }
 }

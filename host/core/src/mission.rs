@@ -144,6 +144,10 @@ pub trait Navigator {
     /// noted of where it sits on the magnet at its pick no longer holds. By default nothing
     /// is noted.
     fn gripped_centred(&mut self) {}
+    /// The leg under way stalled at `pose` against something the routes do not know (it
+    /// ran out of time while moving): plan the next legs round it. By default nothing
+    /// changes.
+    fn blocked_here(&mut self, _pose: Pose2) {}
 }
 
 /// The mission's timing and distances (`[mission]`). Defaults are assumptions, each argued.
@@ -1309,6 +1313,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                         stop
                     }
                     Arrival::Moving if timed_out => {
+                        self.navigator.blocked_here(pose);
                         self.give_up_carry(action, returning, now_us, pose, events);
                         stop
                     }
@@ -1375,6 +1380,8 @@ mod tests {
         halts: u32,
         /// Times told the part was gripped centred.
         centred_grips: u32,
+        /// Where it was told a leg stalled.
+        blocked: Vec<Pose2>,
     }
 
     impl Navigator for FakeNavigator {
@@ -1399,6 +1406,10 @@ mod tests {
 
         fn gripped_centred(&mut self) {
             self.centred_grips += 1;
+        }
+
+        fn blocked_here(&mut self, pose: Pose2) {
+            self.blocked.push(pose);
         }
 
         fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
@@ -2431,6 +2442,48 @@ mod tests {
             }
         }
         (m, events, let_go_driving_to)
+    }
+
+    #[test]
+    fn a_carry_out_of_time_tells_where_it_stalled_and_one_without_a_route_does_not() {
+        let (m, _, _) = carry_to_an_unreachable_drop(MissionConfig::default());
+        assert_eq!(m.navigator.blocked, [], "no route: nothing met");
+
+        let mut m = mission(vec![A]);
+        let stalled_at = Pose2::new(0.321, -0.25, -std::f64::consts::FRAC_PI_2);
+        let (mut stalled, mut magnet) = (false, false);
+        let mut events = Vec::new();
+        for k in 0..3000u64 {
+            if !stalled
+                && matches!(
+                    m.state,
+                    State::ToDrop {
+                        returning: false,
+                        ..
+                    }
+                )
+            {
+                // The carry moves on and on without arriving.
+                m.navigator.ticks_left = u32::MAX;
+                stalled = true;
+            }
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || magnet;
+            let out = m.tick(k * 20_000, stalled_at, pressed);
+            magnet = out.solenoid_on;
+            events.extend(out.events);
+            if m.is_finished() {
+                break;
+            }
+        }
+        assert!(
+            events.contains(&MissionEvent::Skipped {
+                action: A,
+                reason: SkipReason::Unreachable
+            }),
+            "{events:?}"
+        );
+        assert_eq!(m.navigator.blocked, [stalled_at]);
     }
 
     #[test]

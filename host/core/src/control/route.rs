@@ -2,8 +2,8 @@
 //! optional final docking segment; and how routes to a slot are planned.
 
 use crate::config::{Config, NavigationConfig};
-use crate::field::geometry::{Pose2, Segment, Vec2, wrap_angle};
-use crate::field::{Field, Slot};
+use crate::field::geometry::{Pose2, Rect, Segment, Vec2, wrap_angle};
+use crate::field::{Field, PART_DEPTH_M, PART_WIDTH_M, Slot};
 use crate::planning::free_routes::{Departure, FreePath, FreeRoutes};
 use crate::planning::graph::{PlanError, RoadMap, merge_collinear};
 use crate::planning::our_map::our_graph;
@@ -594,6 +594,39 @@ pub fn plan_leg(
     plan_route(field, map, space, start, &drop_slot(slot), config).map(Route::carrying_part_in)
 }
 
+/// How thick the mark a stalled carry leaves is, along its way, m. 0.02: thick enough for
+/// the free-space grids to see; thin enough to leave the next slot free, whose drop brings
+/// the body's side to 0.03 m of a mark at the carried part's side in the slot beside it
+/// (slots 0.15 m apart, the part 0.09 m wide, the body 0.30 m).
+pub const STALL_MARK_M: f64 = 0.02;
+
+/// Where something the routes do not know stands, as a carry that stalled against it at
+/// `pose` (moving along `travel`, robot frame) tells it: a strip [`STALL_MARK_M`] thick
+/// along the carried part's leading side (the part reaches past the body's front into the
+/// slots' mouths, where the routes pass closest to parts they do not know: a part left
+/// proud of its slot, traced at round 1 seed 74 of the wheel-slip faults). `None` when
+/// the part trails (a reverse), or without a direction.
+pub fn stall_mark(footprint: &Footprint, pose: Pose2, travel: Vec2) -> Option<Rect> {
+    if travel.norm() < 1e-9 || travel.x < 0.0 && travel.x.abs() >= travel.y.abs() {
+        return None;
+    }
+    let (near, far) = (footprint.magnet_m, footprint.magnet_m + PART_DEPTH_M);
+    let half = PART_WIDTH_M / 2.0;
+    let (x0, x1, y0, y1) = if travel.x.abs() >= travel.y.abs() {
+        (far, far + STALL_MARK_M, -half, half)
+    } else if travel.y > 0.0 {
+        (near, far, half, half + STALL_MARK_M)
+    } else {
+        (near, far, -half - STALL_MARK_M, -half)
+    };
+    let corners = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+        .map(|(x, y)| pose.transform_point(Vec2::new(x, y)));
+    let (xs, ys) = (corners.map(|c| c.x), corners.map(|c| c.y));
+    let min = |v: [f64; 4]| v.into_iter().fold(f64::INFINITY, f64::min);
+    let max = |v: [f64; 4]| v.into_iter().fold(f64::NEG_INFINITY, f64::max);
+    Some(Rect::from_spans(min(xs), max(xs), min(ys), max(ys)))
+}
+
 /// How our robot plans its legs: through free space ([`crate::planning::free_routes`],
 /// with `navigation.free_routes`) wherever that finds a route, else on our road map
 /// ([`plan_route`]: the waypoint graph with shortcuts). The navigator and the task
@@ -613,12 +646,19 @@ pub struct LegPlanner {
 impl LegPlanner {
     /// The planner for our robot of `config` on its field ([`crate::config::RobotConfig::field`]).
     pub fn new(config: &Config) -> Self {
+        Self::with_obstacles(config, &[])
+    }
+
+    /// [`Self::new`] with `obstacles` on the floor besides the field's walls, dividers and
+    /// poles (marks of stalled carries, [`stall_mark`]). Builds the free-space grids again:
+    /// a tenth of a second and more.
+    pub fn with_obstacles(config: &Config, obstacles: &[Rect]) -> Self {
         let field = config.robot.field();
         let map = RoadMap::new(our_graph(&field, &Footprint::of_robot(&config.robot, true)));
         let spaces = |carrying: bool| {
             let space = FreeSpace::new(
                 &field,
-                &[],
+                obstacles,
                 Footprint::of_robot(&config.robot, carrying),
                 config.navigation.shortcut_margin_m,
             );
@@ -1067,11 +1107,14 @@ mod tests {
     /// goal heading after it, and inside the window at any heading (its swept disc). The
     /// start is not checked when `part_in_slot`: a part just picked stands against its
     /// slot's back wall.
-    fn assert_route_keeps_clear(route: &Route, space: &FreeSpace, part_in_slot: bool, leg: &str) {
+    /// The least room `route` leaves in `space` (m) and where (m along it), from its start
+    /// or, with `part_in_slot`, from its first step.
+    fn least_room(route: &Route, space: &FreeSpace, part_in_slot: bool) -> (f64, f64) {
         let (from_m, to_m) = route
             .turn_window_m()
             .unwrap_or((route.length_m(), route.length_m()));
         let steps = (route.length_m() / 0.005).ceil() as usize;
+        let mut least = (f64::INFINITY, 0.0);
         for k in usize::from(part_in_slot)..=steps {
             let s = route.length_m() * k as f64 / steps as f64;
             let p = route.point_at(s);
@@ -1082,12 +1125,94 @@ mod tests {
             } else {
                 space.turn_clearance_m(p, 1.0)
             };
-            assert!(
-                room > 0.0,
-                "{leg}: at {s:.3} m of {:.3} m, {p:?}",
-                route.length_m()
-            );
+            if room < least.0 {
+                least = (room, s);
+            }
         }
+        least
+    }
+
+    fn assert_route_keeps_clear(route: &Route, space: &FreeSpace, part_in_slot: bool, leg: &str) {
+        let (room, s) = least_room(route, space, part_in_slot);
+        assert!(
+            room > 0.0,
+            "{leg}: at {s:.3} m of {:.3} m, {:?}",
+            route.length_m(),
+            route.point_at(s)
+        );
+    }
+
+    #[test]
+    fn a_stall_mark_lies_along_the_carried_part_s_leading_side() {
+        let footprint = Footprint::centred(0.30, 0.30, true);
+        let (near, far) = (footprint.magnet_m, footprint.magnet_m + PART_DEPTH_M);
+        // Facing -y, strafing towards +x (the robot's left), as along the outgoing
+        // warehouse's mouths (round 1 seed 74 of the wheel-slip faults).
+        let pose = Pose2::new(0.321, -0.25, -std::f64::consts::FRAC_PI_2);
+        let mark = stall_mark(&footprint, pose, Vec2::new(0.0, 0.3)).expect("a mark");
+        let expected = Rect::from_spans(
+            0.321 + PART_WIDTH_M / 2.0,
+            0.321 + PART_WIDTH_M / 2.0 + STALL_MARK_M,
+            -0.25 - far,
+            -0.25 - near,
+        );
+        for (got, want) in [(mark.min, expected.min), (mark.max, expected.max)] {
+            assert!(got.distance(want) < 1e-9, "{mark:?}, expected {expected:?}");
+        }
+        // Driving on: beyond the part's far face.
+        let ahead = stall_mark(&footprint, Pose2::default(), Vec2::new(0.3, 0.05)).expect("a mark");
+        assert!(
+            (ahead.min.x - far).abs() < 1e-9 && (ahead.max.x - far - STALL_MARK_M).abs() < 1e-9
+        );
+        // Reversing, the part trails; standing, no way is known.
+        assert_eq!(stall_mark(&footprint, pose, Vec2::new(-0.3, 0.1)), None);
+        assert_eq!(stall_mark(&footprint, pose, Vec2::ZERO), None);
+    }
+
+    #[test]
+    fn a_carry_plans_round_the_mark_of_one_that_stalled_at_a_part_left_proud() {
+        // Round 1 seed 74 of the wheel-slip faults: a carry from incoming slot 3 to
+        // outgoing slot 3 stalled against the part left proud in outgoing slot 2.
+        let mut config = Config::default();
+        config.navigation.free_routes = true;
+        let plain = LegPlanner::new(&config);
+        let field = plain.field().clone();
+        let slot = |waypoint: u8| {
+            *field
+                .slots()
+                .find(|s| s.waypoint.0 == waypoint)
+                .expect("slot")
+        };
+        let (from, to) = (slot(52), slot(64));
+        let mark = stall_mark(
+            &Footprint::of_robot(&config.robot, true),
+            Pose2::new(0.321, -0.25, -std::f64::consts::FRAC_PI_2),
+            Vec2::new(0.0, 0.3),
+        )
+        .expect("a mark");
+        let marked = LegPlanner::with_obstacles(&config, &[mark]);
+        let marked_space = &marked.carrying.0;
+        let before = plain.plan(from.pick_pose, &to, true).expect("a route");
+        let after = marked
+            .plan(from.pick_pose, &to, true)
+            .expect("a route round the mark");
+        assert!(
+            least_room(&before, marked_space, true).0 <= 0.0,
+            "the way along the mouths meets the mark"
+        );
+        assert_route_keeps_clear(&after, marked_space, true, "52 → 64 round the mark");
+        assert_eq!(after.goal(), before.goal());
+        // Round machine B's east side: longer, and still straight into the slot.
+        assert!(
+            after.length_m() > before.length_m() + 0.2,
+            "{:.3} m",
+            after.length_m()
+        );
+        // The slot beyond is still reached.
+        let beyond = marked
+            .plan(from.pick_pose, &slot(65), true)
+            .expect("slot 4");
+        assert_route_keeps_clear(&beyond, marked_space, true, "52 → 65 round the mark");
     }
 
     #[test]
