@@ -560,6 +560,14 @@ impl Navigator for RouteNavigator {
         }
     }
 
+    fn progress_m(&self) -> Option<f64> {
+        // The creep to the switch is watched by its own limit.
+        self.creep
+            .is_none()
+            .then(|| self.follower.progress_m())
+            .flatten()
+    }
+
     fn gripped_centred(&mut self) {
         self.docking_at = None;
         self.held_part_across_m = 0.0;

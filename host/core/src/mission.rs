@@ -14,7 +14,7 @@
 //! | to pick | docked (switch closed) | back out and approach again, then skip the action |
 //! | gripping | magnet on for `grip_settle_s` and the switch still closed | release, back out, retry, then skip |
 //! | backing out | its speed profile has run and `back_out_m` is travelled | (bounded by three times the profile) |
-//! | to drop | arrived at the drop pose | skip the action and take the part back to its pick slot (`return_given_up_part`; the original keeps it on the magnet) |
+//! | to drop | arrived at the drop pose | not there in `drive_timeout_s`, or no further along its route for `stall_s` away from the drop (`mission::stall`; the stall marked for later legs): skip the action and take the part back to its pick slot (`return_given_up_part`; the original keeps it on the magnet) |
 //! | taking a given-up part back | arrived at its pick pose: release, back out, report the action failed | let it go where it stands, back out, report the action failed |
 //! | to drop, headed in, no closer for 1 s 3–15 cm short of it | — | jammed (`mission::jam`): back off 3 cm, let the part go and grip it again centred (regripping), at most twice an action |
 //! | to drop, the switch open | braking; closed again within `lost_part_debounce_s`: on | at the drop pose: the part is in its slot (releasing); after a hold that let it go near the drop: ask the server (awaiting the server); else it fell off the magnet: look for it (regripping) |
@@ -54,7 +54,9 @@
 //! taken for placed, it lay there unscored).
 
 mod jam;
+mod progress;
 mod search;
+mod stall;
 
 use std::collections::BTreeMap;
 
@@ -65,6 +67,7 @@ use crate::kinematics::BodyTwist;
 use crate::planning::shortcuts::FreeSpace;
 use jam::JamWatch;
 use search::{Search, Step, Trail};
+use stall::StallWatch;
 
 pub use search::{LOOK_CLEARANCE_M, MAX_LOOKS, search_floor};
 
@@ -148,6 +151,11 @@ pub trait Navigator {
     /// ran out of time while moving): plan the next legs round it. By default nothing
     /// changes.
     fn blocked_here(&mut self, _pose: Pose2) {}
+    /// How far along the current leg's route the robot has come, m, for the stall watch
+    /// (`mission::stall`). By default `None`: no watch, only `drive_timeout_s`.
+    fn progress_m(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// The mission's timing and distances (`[mission]`). Defaults are assumptions, each argued.
@@ -210,6 +218,11 @@ pub struct MissionConfig {
     /// `[referee] request_timeout_ms` (0.4 s) still fits. A silent server costs this much,
     /// then the search as before.
     pub server_word_wait_s: f64,
+    /// How long a carry may go without getting on along its route before it counts as
+    /// stalled against something its routes do not know (`mission::stall`), s: it is then
+    /// marked and given up as one out of `drive_timeout_s`. 0: no watch (the timeout alone).
+    /// 2.0: chosen on the realistic world's tuning seeds (see the module).
+    pub stall_s: f64,
     /// The navigator's route to the drop begins with the straight exit from the pick slot
     /// (`control::route::plan_route` does, for our navigation), so after a pick the mission
     /// goes straight on to the drop instead of reversing out and stopping first. Not a key:
@@ -256,6 +269,7 @@ impl Default for MissionConfig {
             regrip_sweep_m: 0.03,
             regrip_looks: 5,
             server_word_wait_s: 1.0,
+            stall_s: 2.0,
             exit_on_route_after_pick: false,
             confirm_release: true,
             watch_carried_part: true,
@@ -273,6 +287,7 @@ impl MissionConfig {
         Self {
             grip_settle_s: 0.0,
             release_settle_s: 0.0,
+            stall_s: 0.0,
             exit_on_route_after_pick: true,
             confirm_release: false,
             watch_carried_part: false,
@@ -588,6 +603,8 @@ pub struct Mission<N, A> {
     jam: JamWatch,
     /// Times this action's part was let go and gripped again after a jam.
     reseats: u32,
+    /// Whether the carry under way still gets on along its route.
+    stall: StallWatch,
 }
 
 impl<N: Navigator, A: ActionSource> Mission<N, A> {
@@ -614,6 +631,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             held: None,
             jam: JamWatch::default(),
             reseats: 0,
+            stall: StallWatch::default(),
         }
     }
 
@@ -750,6 +768,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         }
         self.trail.later(held_us);
         self.jam.later(held_us);
+        self.stall.later(held_us);
         if let Some(search) = self.search.as_mut() {
             search.later(held_us);
         }
@@ -872,6 +891,19 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             && wrap_angle(pose.yaw_rad - pick.yaw_rad).abs() <= LET_GO_AT_DROP_RAD
     }
 
+    /// Whether the carry to `target` has stopped getting on along its route for `stall_s`
+    /// (`mission::stall`), away from the drop, where the jam watch has the say.
+    fn stalled(&mut self, now_us: u64, pose: Pose2, target: WaypointId) -> bool {
+        let Some(along_m) = self.navigator.progress_m() else {
+            self.stall.reset();
+            return false;
+        };
+        let stalled_s = self.stall.stalled_s(now_us, along_m, pose.yaw_rad);
+        self.config.stall_s > 0.0
+            && stalled_s >= self.config.stall_s
+            && !self.within(target, pose, jam::WATCH_RADIUS_M)
+    }
+
     fn elapsed_s(now_us: u64, since_us: u64) -> f64 {
         now_us.saturating_sub(since_us) as f64 * 1e-6
     }
@@ -958,6 +990,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         self.navigator
             .go_to(now_us, pose, target, false, Vec2::ZERO);
         self.jam.reset();
+        self.stall.reset();
         self.trail.clear();
         self.state = State::ToDrop {
             action,
@@ -1294,7 +1327,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 // Carrying, the switch is pressed by the part: the follower must arrive at the
                 // pose, not stop at the switch.
                 let (twist, arrival) = self.navigator.update(now_us, pose, false);
-                let timed_out = Self::elapsed_s(now_us, since_us) > self.config.drive_timeout_s;
+                let timed_out = Self::elapsed_s(now_us, since_us) > self.config.drive_timeout_s
+                    || self.stalled(now_us, pose, target);
                 match arrival {
                     Arrival::Arrived | Arrival::Docked if !self.config.confirm_release => {
                         // The original: magnet off and on to the next part in this tick.
@@ -1382,6 +1416,8 @@ mod tests {
         centred_grips: u32,
         /// Where it was told a leg stalled.
         blocked: Vec<Pose2>,
+        /// How far along its route it says the robot is (`None`: it does not say).
+        progress: Option<f64>,
     }
 
     impl Navigator for FakeNavigator {
@@ -1410,6 +1446,10 @@ mod tests {
 
         fn blocked_here(&mut self, pose: Pose2) {
             self.blocked.push(pose);
+        }
+
+        fn progress_m(&self) -> Option<f64> {
+            self.progress
         }
 
         fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
@@ -2484,6 +2524,69 @@ mod tests {
             "{events:?}"
         );
         assert_eq!(m.navigator.blocked, [stalled_at]);
+    }
+
+    /// A carry that moves on without arriving, its route's progress at tick `k` given by
+    /// `progress`, the robot standing at `at`: when the action was given up (s) and where
+    /// the navigator was told the carry stalled.
+    fn carry_that_never_arrives(
+        progress: impl Fn(u64) -> Option<f64>,
+        at: Pose2,
+    ) -> (Option<f64>, Vec<Pose2>) {
+        let mut m = mission(vec![A]);
+        let (mut carrying_since, mut magnet) = (None, false);
+        for k in 0..3000u64 {
+            if carrying_since.is_none()
+                && matches!(
+                    m.state,
+                    State::ToDrop {
+                        returning: false,
+                        ..
+                    }
+                )
+            {
+                m.navigator.ticks_left = u32::MAX;
+                carrying_since = Some(k);
+            }
+            m.navigator.progress = carrying_since.and_then(|since| progress(k - since));
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || magnet;
+            let out = m.tick(k * 20_000, at, pressed);
+            magnet = out.solenoid_on;
+            let skipped = out.events.contains(&MissionEvent::Skipped {
+                action: A,
+                reason: SkipReason::Unreachable,
+            });
+            if skipped {
+                let since = carrying_since.expect("skipped while carrying");
+                return (Some((k - since) as f64 * 0.02), m.navigator.blocked);
+            }
+        }
+        (None, m.navigator.blocked)
+    }
+
+    #[test]
+    fn a_carry_that_stops_getting_on_is_marked_and_given_up_in_stall_s_not_the_drive_timeout() {
+        let config = MissionConfig::default();
+        let at = Pose2::new(0.321, -0.25, -std::f64::consts::FRAC_PI_2);
+        // Pushing a part: the wheels run the estimate a few centimetres on, the scans pull
+        // it back, and the route's progress goes nowhere.
+        let (given_up_s, blocked) =
+            carry_that_never_arrives(|k| Some(0.4 + 0.01 * (k % 7) as f64), at);
+        let given_up_s = given_up_s.expect("given up");
+        assert!(
+            (config.stall_s..config.stall_s + 0.2).contains(&given_up_s),
+            "given up after {given_up_s} s"
+        );
+        assert_eq!(blocked, [at]);
+
+        // Getting on at 0.3 m/s (the route longer than the timeout) is no stall.
+        let (given_up_s, _) = carry_that_never_arrives(|k| Some(0.006 * k as f64), at);
+        let given_up_s = given_up_s.expect("given up");
+        assert!(
+            given_up_s >= config.drive_timeout_s,
+            "given up after {given_up_s} s"
+        );
     }
 
     #[test]

@@ -306,6 +306,11 @@ const KEYS: &[(&str, Getter, Setter)] = &[
         |c, v| c.mission.drive_timeout_s = v,
     ),
     (
+        "mission.stall_s",
+        |c| c.mission.stall_s,
+        |c, v| c.mission.stall_s = v,
+    ),
+    (
         "mission.server_word_wait_s",
         |c| c.mission.server_word_wait_s,
         |c, v| c.mission.server_word_wait_s = v,

@@ -250,6 +250,14 @@ impl MissionConfig {
             "each look takes about 3 s; the search keeps at most this many",
         );
         c.within(
+            "stall_s",
+            self.stall_s,
+            0.0,
+            30.0,
+            "s",
+            "0 turns the watch off; longer than drive_timeout_s never fires",
+        );
+        c.within(
             "server_word_wait_s",
             self.server_word_wait_s,
             0.0,

@@ -82,6 +82,12 @@ pub trait PathFollower {
     /// The robot was held still: it is at rest now, whatever was last commanded, and the
     /// time since the last update passed standing; go on along the route from rest.
     fn halted(&mut self);
+    /// How far along the route the estimate stood at the last update, m, for a watch on
+    /// whether the robot still gets on (`mission::stall`). `None` when this follower does
+    /// not say (the default).
+    fn progress_m(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// Extra along-track speed that keeps the final approach moving against the wheels' dead
@@ -187,6 +193,8 @@ pub struct Follower {
     in_flight: InFlight,
     last_us: Option<u64>,
     status: Status,
+    /// Where the estimate projected on the route at the last update, m along it.
+    progress_m: Option<f64>,
 }
 
 impl Follower {
@@ -206,6 +214,7 @@ impl Follower {
             in_flight: InFlight::default(),
             last_us: None,
             status: Status::Idle,
+            progress_m: None,
         }
     }
 
@@ -249,6 +258,7 @@ impl PathFollower for Follower {
         self.in_flight.clear();
         self.last_us = None;
         self.status = Status::Following;
+        self.progress_m = None;
     }
 
     fn start_moving(&mut self, route: Route, velocity: Vec2) {
@@ -261,6 +271,10 @@ impl PathFollower for Follower {
         // Moving on from the last route, the robot is still driving out what it was told.
         let window_s = self.coast_window_s();
         self.in_flight.push(window_s, velocity, window_s);
+    }
+
+    fn progress_m(&self) -> Option<f64> {
+        self.progress_m
     }
 
     fn halted(&mut self) {
@@ -295,6 +309,7 @@ impl PathFollower for Follower {
         let position = pose.position() + self.last_velocity * c.lag_compensation_s;
         let at = route.project(self.segment, position);
         self.segment = at.segment;
+        self.progress_m = Some(at.s_m);
         let goal = route.goal();
         let length = route.length_m();
         let in_dock =

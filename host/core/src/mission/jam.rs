@@ -12,6 +12,8 @@
 //! a part that fell off (`mission::search`), whose centring strafes find the plate's edges
 //! with the switch before the magnet takes it up, so the part rides centred into the slot.
 
+use super::progress::Progress;
+
 /// Distance from the drop pose within which the robot is watched for a jam, m: a slot's
 /// dividers are 7 cm long, so the carried part meets their tips with the robot about 7 cm
 /// short of its drop pose (6.7 and 7.4 cm in the two runs of the fault bench that jammed).
@@ -40,17 +42,11 @@ pub(super) const MAX_RESEATS: u32 = 2;
 /// the dividers behind it (machine B's, over outgoing slot 3).
 pub(super) const JAMMED_BACK_OUT_M: f64 = 0.03;
 
-/// The closest the robot has come to its drop, and since when it has come no closer.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Closest {
-    distance_m: f64,
-    since_us: u64,
-}
-
 /// Watches a carry's distance to its drop pose for a stall within [`WATCH_RADIUS_M`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct JamWatch {
-    closest: Option<Closest>,
+    /// Getting closer is the progress watched: the distance's negative.
+    closer: Progress,
 }
 
 impl JamWatch {
@@ -59,34 +55,20 @@ impl JamWatch {
     /// [`IN_SLOT_M`] short.
     pub(super) fn jammed(&mut self, now_us: u64, distance_m: f64) -> bool {
         if distance_m > WATCH_RADIUS_M {
-            self.closest = None;
+            self.closer.reset();
             return false;
         }
-        match self.closest {
-            Some(closest) if distance_m > closest.distance_m - PROGRESS_M => {
-                now_us.saturating_sub(closest.since_us) as f64 * 1e-6 >= STALL_S
-                    && distance_m >= IN_SLOT_M
-            }
-            _ => {
-                self.closest = Some(Closest {
-                    distance_m,
-                    since_us: now_us,
-                });
-                false
-            }
-        }
+        self.closer.stalled_s(now_us, -distance_m, PROGRESS_M) >= STALL_S && distance_m >= IN_SLOT_M
     }
 
     /// Start watching afresh (a new carry).
     pub(super) fn reset(&mut self) {
-        self.closest = None;
+        self.closer.reset();
     }
 
     /// Every time `held_us` later: the mission stood held that long (its clock stopped).
     pub(super) fn later(&mut self, held_us: u64) {
-        if let Some(closest) = self.closest.as_mut() {
-            closest.since_us = closest.since_us.saturating_add(held_us);
-        }
+        self.closer.later(held_us);
     }
 }
 
