@@ -48,7 +48,12 @@
 //! a machine block the robot's back runs 2 cm from the dividers. So a look whose start would
 //! put the bare body within [`LOOK_CLEARANCE_M`] of a wall, divider or pole starts further on
 //! along its line ([`FreeSpace::first_free_ahead_m`]), and creeps to where it would have;
-//! with no free start short of its anchor it is not taken. The creep itself is not cut
+//! with no free start short of its anchor it is not taken. The way to a look's start and the
+//! centring's strafes are checked too, for the gap they keep ([`MANOEUVRE_CLEARANCE_M`], or
+//! the least at their ends where that is less): a line-up whose straight way would come
+//! closer goes by a corner, across to the look's line first or along to its start first
+//! (a look with no way there that misses every solid is not taken), and a strafe ends
+//! where it would come closer, as one that finds no edge. The creep itself is not cut
 //! short of the walls: a part that fell back into its slot lies where only a creep to the
 //! dividers' tips reaches it (cut 3 mm short, on the tuning seeds 71–90, it gave up a part
 //! after a Mega reset and saved no further collisions: the true body stands a few
@@ -115,6 +120,20 @@ const CENTRE_SPEED_M_S: f64 = 0.04;
 /// Farthest a centring strafe goes past where it began looking for an edge, m. 0.09: more
 /// than the 80 mm plate's width, so a lever anywhere on the plate has left it by then.
 const CENTRE_SPAN_M: f64 = 0.09;
+/// The gap to the field's walls, dividers and poles that the line-up and the centring's
+/// strafes keep where they can, m: 0.01, about twice the estimate's error some tenths of a
+/// second after a hold (3–6 mm, traced in the fault bench's Mega resets and replugs). A
+/// move that starts or ends closer keeps the least gap of its ends instead (a part that fell
+/// back into its slot's mouth is found with the face 5 mm off the dividers' tips).
+const MANOEUVRE_CLEARANCE_M: f64 = 0.01;
+/// Samples along a line-up or a strafe whose clearance is checked are this far apart at most,
+/// m: 2 mm, under the clearance's slack for a pose between two samples.
+const MANOEUVRE_STEP_M: f64 = 0.002;
+/// Slack in comparing a move's least gap with that of its ends, m: 0.5 mm, for the sampling.
+const MANOEUVRE_SLACK_M: f64 = 0.0005;
+/// Within this distance of a line-up's corner the robot turns on to the look's start, m:
+/// 3 mm, so the body does not cut the corner the route was chosen for.
+const CORNER_TOLERANCE_M: f64 = 0.003;
 /// Centred within this distance of the midpoint, m: 3 mm.
 const CENTRE_TOLERANCE_M: f64 = 0.003;
 /// How far ahead of where the switch closed the robot holds its line while centring, m.
@@ -170,18 +189,21 @@ impl Trail {
 enum Phase {
     /// Standing, magnet on, while the robot stops.
     Braking,
-    /// Driving to the start of look `look`, for at most until `limit_us`.
-    LiningUp { limit_us: u64 },
+    /// Driving to the start of look `look`, for at most until `limit_us`, by way of the
+    /// corner `via` first when the straight way is not clear ([`line_up_route`]).
+    LiningUp { limit_us: u64, via: Option<Vec2> },
     /// Creeping along look `look`; the farthest it got along it so far, m, and when, µs.
     Creeping { best_m: f64, best_us: u64 },
     /// The switch closed with the robot at `origin`: magnet off, strafing along `origin`'s
     /// left (+y) until the switch opens at the plate's first edge, then to the right until
     /// it opens at the second; `first_edge_m`: the first edge across `origin`, m;
     /// `closed`: the switch read closed since the strafe began; at most until `limit_us`;
-    /// the robot holds its line `press_m` on from `origin` ([`centre_press_m`]).
+    /// the robot holds its line `press_m` on from `origin` ([`centre_press_m`]);
+    /// `room_m`: how far it may strafe to the left and to the right ([`strafe_room_m`]).
     Centring {
         origin: Pose2,
         press_m: f64,
+        room_m: [f64; 2],
         first_edge_m: Option<f64>,
         closed: bool,
         limit_us: u64,
@@ -310,11 +332,10 @@ impl Search {
         floor: &FreeSpace,
     ) -> Option<Self> {
         let mut search = Self::new(trail, pose, now_us, config, floor);
-        if search.looks.is_empty() {
-            return None;
+        match search.line_up(now_us, pose, floor) {
+            Step::Lost => None,
+            _ => Some(search),
         }
-        search.line_up(now_us, pose);
-        Some(search)
     }
 
     /// Every time of the search `held_us` later: the mission stood held that long (its clock
@@ -323,7 +344,7 @@ impl Search {
         let later = |t: &mut u64| *t = t.saturating_add(held_us);
         later(&mut self.since_us);
         match &mut self.phase {
-            Phase::LiningUp { limit_us }
+            Phase::LiningUp { limit_us, .. }
             | Phase::Centring { limit_us, .. }
             | Phase::ToMiddle { limit_us, .. } => later(limit_us),
             Phase::Creeping { best_us, .. } => later(best_us),
@@ -364,7 +385,7 @@ impl Search {
             } else {
                 // The part moved while the robot centred, or the centring went wrong: on
                 // to the next look.
-                self.next_look(now_us, pose)
+                self.next_look(now_us, pose, floor)
             };
         }
         match self.phase {
@@ -378,10 +399,13 @@ impl Search {
             }
             _ if switch => {
                 let limit_us = now_us + centre_limit_us(CENTRE_SPAN_M);
+                let press_m = centre_press_m(floor, pose);
+                let room_m = [1.0, -1.0].map(|side| strafe_room_m(floor, pose, press_m, side));
                 self.enter(
                     Phase::Centring {
                         origin: pose,
-                        press_m: centre_press_m(floor, pose),
+                        press_m,
+                        room_m,
                         first_edge_m: None,
                         closed: true,
                         limit_us,
@@ -396,20 +420,27 @@ impl Search {
             Phase::Braking => {
                 if elapsed_s < config.regrip_brake_s {
                     stop
-                } else if self.looks.is_empty() {
-                    // Every look would start against a wall: nowhere safe to look.
-                    Step::Lost
                 } else {
-                    self.line_up(now_us, pose);
-                    stop
+                    // Lost when every look would start against a wall, or has no clear way
+                    // to its start: nowhere safe to look.
+                    self.line_up(now_us, pose, floor)
                 }
             }
-            Phase::LiningUp { limit_us } => {
-                let target = self.looks[self.look].start;
-                let error = target.position() - pose.position();
-                let yaw_error = wrap_angle(target.yaw_rad - pose.yaw_rad);
-                let lined_up =
-                    error.norm() <= LINE_UP_TOLERANCE_M && yaw_error.abs() <= LINE_UP_TOLERANCE_RAD;
+            Phase::LiningUp { limit_us, via } => {
+                let start = self.looks[self.look].start;
+                let target = via.unwrap_or(start.position());
+                let error = target - pose.position();
+                let yaw_error = wrap_angle(start.yaw_rad - pose.yaw_rad);
+                if via.is_some() && error.norm() <= CORNER_TOLERANCE_M {
+                    self.phase = Phase::LiningUp {
+                        limit_us,
+                        via: None,
+                    };
+                    return self.tick(now_us, pose, switch, config, floor);
+                }
+                let lined_up = via.is_none()
+                    && error.norm() <= LINE_UP_TOLERANCE_M
+                    && yaw_error.abs() <= LINE_UP_TOLERANCE_RAD;
                 if lined_up || now_us >= limit_us {
                     let best_m = 0.0;
                     self.enter(
@@ -443,7 +474,7 @@ impl Search {
                 self.phase = Phase::Creeping { best_m, best_us };
                 let stalled = now_us.saturating_sub(best_us) as f64 * 1e-6 > STALL_S;
                 if along >= reach_m || elapsed_s > limit_s || stalled {
-                    return self.next_look(now_us, pose);
+                    return self.next_look(now_us, pose, floor);
                 }
                 let hold = (-GAIN_PER_S * across).clamp(-speed, speed);
                 let velocity = along_unit * speed + across_unit * hold;
@@ -463,6 +494,7 @@ impl Search {
             Phase::Centring {
                 origin,
                 press_m,
+                room_m: [left_m, right_m],
                 first_edge_m,
                 closed,
                 limit_us,
@@ -475,6 +507,7 @@ impl Search {
                         self.phase = Phase::Centring {
                             origin,
                             press_m,
+                            room_m: [left_m, right_m],
                             first_edge_m: Some(across),
                             closed: false,
                             limit_us: now_us + centre_limit_us(across + CENTRE_SPAN_M),
@@ -482,8 +515,11 @@ impl Search {
                         return stop;
                     }
                     Some(first) if closed && !switch => Some(0.5 * (first + across)),
-                    None if across >= CENTRE_SPAN_M || now_us >= limit_us => Some(0.0),
-                    Some(first) if across <= first - CENTRE_SPAN_M || now_us >= limit_us => {
+                    None if across >= CENTRE_SPAN_M.min(left_m) || now_us >= limit_us => Some(0.0),
+                    Some(first)
+                        if across <= (first - CENTRE_SPAN_M).max(-right_m)
+                            || now_us >= limit_us =>
+                    {
                         Some(0.0)
                     }
                     _ => None,
@@ -505,6 +541,7 @@ impl Search {
                 self.phase = Phase::Centring {
                     origin,
                     press_m,
+                    room_m: [left_m, right_m],
                     first_edge_m,
                     closed,
                     limit_us,
@@ -533,13 +570,9 @@ impl Search {
     }
 
     /// On to the next look from `pose`, or [`Step::Lost`] after the last.
-    fn next_look(&mut self, now_us: u64, pose: Pose2) -> Step {
+    fn next_look(&mut self, now_us: u64, pose: Pose2, floor: &FreeSpace) -> Step {
         self.look += 1;
-        if self.look >= self.looks.len() {
-            return Step::Lost;
-        }
-        self.line_up(now_us, pose);
-        Step::Searching(BodyTwist::default())
+        self.line_up(now_us, pose, floor)
     }
 
     fn enter(&mut self, phase: Phase, now_us: u64) {
@@ -547,14 +580,25 @@ impl Search {
         self.since_us = now_us;
     }
 
-    /// Begin lining up for the current look from `pose`, with a time limit of three times
-    /// what the line-up takes at its top speeds, and half a second.
-    fn line_up(&mut self, now_us: u64, pose: Pose2) {
-        let target = self.looks[self.look].start;
-        let travel_s = target.position().distance(pose.position()) / LINE_UP_SPEED_M_S
-            + wrap_angle(target.yaw_rad - pose.yaw_rad).abs() / LINE_UP_TURN_RAD_S;
-        let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
-        self.enter(Phase::LiningUp { limit_us }, now_us);
+    /// Begin lining up from `pose` for the current look, or the first later one with a
+    /// clear way to its start ([`line_up_route`]), with a time limit of three times what the
+    /// line-up takes at its top speeds, and half a second; [`Step::Lost`] when none is left.
+    fn line_up(&mut self, now_us: u64, pose: Pose2, floor: &FreeSpace) -> Step {
+        while let Some(look) = self.looks.get(self.look) {
+            let target = look.start;
+            if let Some(via) = line_up_route(floor, pose, target) {
+                let path_m = via.map_or(target.position().distance(pose.position()), |v| {
+                    v.distance(pose.position()) + v.distance(target.position())
+                });
+                let travel_s = path_m / LINE_UP_SPEED_M_S
+                    + wrap_angle(target.yaw_rad - pose.yaw_rad).abs() / LINE_UP_TURN_RAD_S;
+                let limit_us = now_us + ((0.5 + 3.0 * travel_s) * 1e6) as u64;
+                self.enter(Phase::LiningUp { limit_us, via }, now_us);
+                return Step::Searching(BodyTwist::default());
+            }
+            self.look += 1;
+        }
+        Step::Lost
     }
 }
 
@@ -581,6 +625,92 @@ fn centre_press_m(floor: &FreeSpace, origin: Pose2) -> f64 {
 /// [`CENTRE_SPEED_M_S`], and half a second, µs.
 fn centre_limit_us(span_m: f64) -> u64 {
     ((0.5 + 2.0 * span_m.abs() / CENTRE_SPEED_M_S) * 1e6) as u64
+}
+
+/// How a line-up from `pose` drives to `start`: straight (`Some(None)`), or by way of a
+/// corner (`Some(Some(corner))`), across to the start's line first or along to its depth
+/// first, whichever keeps [`MANOEUVRE_CLEARANCE_M`] from the field's solids or, where an end
+/// stands closer, the least gap of its ends; failing that the way with the widest gap;
+/// `None` when every way runs into one. Only the start of a look used to be checked: the
+/// straight way from a pose beneath machine A, its back 8 mm above a divider's tip, to a
+/// start 3 cm behind and 5 cm aside swept the body's corner across the tip (fault bench,
+/// Mega reset, round 1 seed 105).
+fn line_up_route(floor: &FreeSpace, pose: Pose2, start: Pose2) -> Option<Option<Vec2>> {
+    let cap_m = MANOEUVRE_CLEARANCE_M;
+    let ends_m = floor
+        .pose_clearance_m(pose, cap_m)
+        .min(floor.pose_clearance_m(start, cap_m));
+    let offset = start.relative(pose);
+    let corners = [
+        start.compose(Pose2::new(offset.x, 0.0, 0.0)).position(),
+        start.compose(Pose2::new(0.0, offset.y, 0.0)).position(),
+    ];
+    let ways = std::iter::once(None).chain(corners.map(Some));
+    let mut best: Option<(f64, Option<Vec2>)> = None;
+    for via in ways {
+        let gap_m = match via {
+            None => move_clearance_m(floor, pose, start, cap_m),
+            Some(corner) => {
+                let turned = Pose2::new(corner.x, corner.y, start.yaw_rad);
+                move_clearance_m(floor, pose, turned, cap_m)
+                    .min(move_clearance_m(floor, turned, start, cap_m))
+            }
+        };
+        if gap_m >= ends_m - MANOEUVRE_SLACK_M {
+            return Some(via);
+        }
+        if best.is_none_or(|(widest_m, _)| gap_m > widest_m) {
+            best = Some((gap_m, via));
+        }
+    }
+    best.filter(|&(gap_m, _)| gap_m > 0.0).map(|(_, via)| via)
+}
+
+/// The least gap to `floor`'s solids of the body moving straight from `from` to `to`,
+/// turning evenly on the way (as the line-up's equal gains on position and heading do), m,
+/// at most `cap_m`: 0 where it touches one.
+fn move_clearance_m(floor: &FreeSpace, from: Pose2, to: Pose2, cap_m: f64) -> f64 {
+    let turn = wrap_angle(to.yaw_rad - from.yaw_rad);
+    // The front corners move 0.2 m per radian of turn.
+    let length_m = from.position().distance(to.position()) + 0.2 * turn.abs();
+    let steps = (length_m / MANOEUVRE_STEP_M).ceil().max(1.0) as usize;
+    let mut least = cap_m;
+    for k in 0..=steps {
+        let t = k as f64 / steps as f64;
+        let p = from.position() + (to.position() - from.position()) * t;
+        least =
+            least.min(floor.pose_clearance_m(Pose2::new(p.x, p.y, from.yaw_rad + turn * t), least));
+        if least <= 0.0 {
+            break;
+        }
+    }
+    least
+}
+
+/// How far the centring may strafe from `origin` to its left (`side` 1) or right (−1), m:
+/// up to [`CENTRE_SPAN_M`], and no closer to `floor`'s solids than [`MANOEUVRE_CLEARANCE_M`]
+/// or than the body stands where the strafe begins, on `origin`'s line and on the line
+/// `press_m` on (the robot moves from one to the other as it strafes). Before, only the
+/// press was kept off the walls: a strafe to find a plate's edge beside machine B swept the
+/// body's back corner onto a divider's tip (fault bench, Mega replug, round 1 seed 68).
+fn strafe_room_m(floor: &FreeSpace, origin: Pose2, press_m: f64, side: f64) -> f64 {
+    let cap_m = MANOEUVRE_CLEARANCE_M;
+    let gap_m = |across_m: f64| {
+        [0.0, press_m]
+            .map(|along_m| {
+                let pose = origin.compose(Pose2::new(along_m, side * across_m, 0.0));
+                floor.pose_clearance_m(pose, cap_m)
+            })
+            .into_iter()
+            .fold(cap_m, f64::min)
+    };
+    let keep_m = gap_m(0.0) - MANOEUVRE_SLACK_M;
+    let steps = (CENTRE_SPAN_M / MANOEUVRE_STEP_M).ceil() as usize;
+    (1..=steps)
+        .map(|k| (k as f64 * MANOEUVRE_STEP_M).min(CENTRE_SPAN_M))
+        .take_while(|&d| gap_m(d) >= keep_m)
+        .last()
+        .unwrap_or(0.0)
 }
 
 /// Where `pose` is from `origin`: along its heading and to its left, m.
@@ -705,6 +835,38 @@ mod tests {
         assert!((first.reach_m + from_wanted_m - config.regrip_reach_m).abs() < 1e-9);
     }
 
+    /// Ticks `search` from `pose` until it ends (at most 20 s), the body moving exactly as
+    /// commanded, the switch closed while the lever (on the body's centre line) is within
+    /// the 80 mm plate centred at `plate`; the last step, the last pose and the least gap
+    /// to `floor`'s solids on the way.
+    fn run(
+        search: &mut Search,
+        mut pose: Pose2,
+        plate: Pose2,
+        floor: &FreeSpace,
+    ) -> (Step, Pose2, f64) {
+        let config = MissionConfig::default();
+        let dt_s = 0.02;
+        let mut least_gap_m = f64::INFINITY;
+        for k in 0..1000u64 {
+            least_gap_m = least_gap_m.min(floor.pose_clearance_m(pose, 1.0));
+            let lever = plate.relative(pose);
+            let switch = lever.x >= -0.005 && lever.y.abs() <= 0.04;
+            match search.tick(k * 20_000, pose, switch, &config, floor) {
+                Step::Searching(twist) => {
+                    let step = Pose2::new(
+                        twist.vx_m_s * dt_s,
+                        twist.vy_m_s * dt_s,
+                        twist.omega_rad_s * dt_s,
+                    );
+                    pose = pose.compose(step);
+                }
+                done => return (done, pose, least_gap_m),
+            }
+        }
+        (Step::Searching(BodyTwist::default()), pose, least_gap_m)
+    }
+
     /// The bug this guards: a part that fell off as the robot left incoming slot 4 lay back
     /// in the slot's mouth, and the creep found it 4 mm short of the pick pose (5 mm off the
     /// dividers' tips). Centring pressed 1 cm on from there, 1 mm past the tips, and the
@@ -724,36 +886,84 @@ mod tests {
             best_m: 0.0,
             best_us: 0,
         };
-        let mut pose = found;
         let plate_centre = found.compose(Pose2::new(0.0, 0.012, 0.0));
-        let dt_s = 0.02;
-        let mut centred = false;
-        for k in 0..1000u64 {
-            // The lever touches the 80 mm plate within its width.
-            let across = plate_centre.relative(pose).y;
-            let switch = across.abs() <= 0.04;
-            match search.tick(k * 20_000, pose, switch, &config, &floor) {
-                Step::Searching(twist) => {
-                    let step = Pose2::new(
-                        twist.vx_m_s * dt_s,
-                        twist.vy_m_s * dt_s,
-                        twist.omega_rad_s * dt_s,
-                    );
-                    pose = pose.compose(step);
-                }
-                Step::Found => {
-                    centred = true;
-                    break;
-                }
-                Step::Lost => break,
-            }
-            assert!(floor.pose_is_free(pose), "tick {k}: {pose:?} {search:?}");
-        }
+        let (step, pose, least_gap_m) = run(&mut search, found, plate_centre, &floor);
+        let centred = step == Step::Found;
+        assert!(least_gap_m >= LOOK_CLEARANCE_M, "{least_gap_m} {search:?}");
         assert!(centred, "{search:?}");
         // Gripped midway between the plate's edges.
         assert!(plate_centre.relative(pose).y.abs() < 0.005, "{pose:?}");
         // In open floor the press stays 1 cm.
         assert_eq!(centre_press_m(&floor, OPEN), CENTRE_PRESS_M);
+    }
+
+    /// The bug this guards (fault bench, Mega reset, round 1 seed 105): the hold let the
+    /// part go beneath machine A as the robot strafed along the incoming row, its back 8 mm
+    /// above the tip of the machine's top divider, and it coasted on 5 cm. The straight
+    /// line-up to the first look's start, 3 cm behind and 5 cm back along the row, swept
+    /// the body's back corner across the divider's tip; the line-up now goes along the row
+    /// first, then back.
+    #[test]
+    fn a_line_up_whose_straight_way_crosses_a_divider_goes_round_it() {
+        let config = MissionConfig::default();
+        let floor = floor();
+        let up = std::f64::consts::FRAC_PI_2;
+        // The back 8 mm above machine A's top divider (y = 0.085).
+        let held = Pose2::new(-0.598, 0.085 + 0.008 + 0.15, up);
+        let coasted = Pose2::new(-0.548, held.y, up);
+        let mut trail = Trail::default();
+        trail.push(0, held);
+        let mut search = Search::new(&trail, coasted, 0, &config, &floor);
+        let start = search.looks()[0].start;
+        assert!(
+            move_clearance_m(&floor, coasted, start, 1.0) <= 0.0,
+            "the straight way must cross the divider for this test to guard anything"
+        );
+        let (step, pose, least_gap_m) = run(&mut search, coasted, held, &floor);
+        assert_eq!(step, Step::Found, "{search:?}");
+        // Gripped centred on the plate.
+        assert!(held.relative(pose).y.abs() < 0.005, "{pose:?}");
+        // No closer than the body stood when it stopped.
+        let stood_m = floor.pose_clearance_m(coasted, 1.0);
+        assert!(
+            least_gap_m >= stood_m - MANOEUVRE_SLACK_M,
+            "{least_gap_m} < {stood_m}"
+        );
+    }
+
+    /// The bug this guards (fault bench, Mega replug, round 1 seed 68): a part found before
+    /// the face beside machine B, far to the lever's right, so that the strafe to the plate's
+    /// left edge runs long: it brought the believed body within 3 mm of the machine's lower
+    /// divider, and the true body, 3 mm off it, onto its tip. It now ends where the gap is
+    /// down to 1 cm.
+    #[test]
+    fn a_centring_strafe_stops_short_of_a_divider() {
+        let config = MissionConfig::default();
+        let floor = floor();
+        let found = Pose2::new(0.046, -0.127, (-118.7_f64).to_radians());
+        let mut trail = Trail::default();
+        trail.push(0, found);
+        let mut search = Search::new(&trail, found, 0, &config, &floor);
+        search.phase = Phase::Creeping {
+            best_m: 0.0,
+            best_us: 0,
+        };
+        // The lever 3.5 mm inside the plate's right edge: its left edge is 7.6 cm away.
+        let plate = found.compose(Pose2::new(0.0, 0.0365, 0.0));
+        let stood_m = floor.pose_clearance_m(found, 1.0);
+        assert!(stood_m > MANOEUVRE_CLEARANCE_M, "{stood_m}");
+        let left_edge = found.compose(Pose2::new(CENTRE_PRESS_M, 0.0765, 0.0));
+        assert!(
+            floor.pose_clearance_m(left_edge, 1.0) < 0.005,
+            "the strafe to the left edge must come within the estimate's error of the divider \
+             for this test to guard anything"
+        );
+        let (step, _, least_gap_m) = run(&mut search, found, plate, &floor);
+        assert_eq!(step, Step::Found, "{search:?}");
+        assert!(
+            least_gap_m >= MANOEUVRE_CLEARANCE_M - MANOEUVRE_SLACK_M,
+            "{least_gap_m}"
+        );
     }
 
     #[test]
