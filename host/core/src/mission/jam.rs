@@ -39,7 +39,8 @@ pub(super) const MAX_RESEATS: u32 = 2;
 
 /// Reverse from a jam before letting the part go, m: 3 cm takes its corner off the tip;
 /// the whole `back_out_m` from there, short of the drop pose, can put the body's back onto
-/// the dividers behind it (machine B's, over outgoing slot 3).
+/// the dividers behind it (machine B's, over outgoing slot 3), and so can these 3 cm where the
+/// jam came farther out: the mission reverses less where the walls behind leave less.
 pub(super) const JAMMED_BACK_OUT_M: f64 = 0.03;
 
 /// Watches a carry's distance to its drop pose for a stall within [`WATCH_RADIUS_M`].
