@@ -1086,11 +1086,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             Step::Found => {
                 events.push(MissionEvent::Regripped);
                 self.navigator.gripped_centred();
-                let m = self.floor.free_reverse_m(
-                    pose,
-                    self.config.regrip_backoff_m,
-                    FLOOR_REVERSE_CLEARANCE_M,
-                );
+                let m = self.reverse_room_m(pose, self.config.regrip_backoff_m);
                 self.state = State::BackingOut {
                     from: pose,
                     then: AfterBackOut::CarryFromFloor { action, m },
@@ -1104,6 +1100,14 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 BodyTwist::default()
             }
         }
+    }
+
+    /// How far the robot at `pose` may reverse off a part it holds, up to `up_to_m`:
+    /// [`FLOOR_REVERSE_CLEARANCE_M`] short of the walls behind (the bare body: the part is
+    /// ahead of it), m.
+    fn reverse_room_m(&self, pose: Pose2, up_to_m: f64) -> f64 {
+        self.floor
+            .free_reverse_m(pose, up_to_m, FLOOR_REVERSE_CLEARANCE_M)
     }
 
     fn advance(
@@ -1319,11 +1323,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                     self.reseats += 1;
                     self.jam.reset();
                     events.push(MissionEvent::Jammed);
-                    let m = self.floor.free_reverse_m(
-                        pose,
-                        jam::JAMMED_BACK_OUT_M.min(self.config.back_out_m),
-                        FLOOR_REVERSE_CLEARANCE_M,
-                    );
+                    let m = self
+                        .reverse_room_m(pose, jam::JAMMED_BACK_OUT_M.min(self.config.back_out_m));
                     self.state = State::BackingOut {
                         from: pose,
                         then: AfterBackOut::Reseat { action, m },
@@ -1722,6 +1723,20 @@ mod tests {
         todo: Vec<Action>,
         slot_poses: BTreeMap<WaypointId, Pose2>,
     ) -> Mission<FakeNavigator, Script> {
+        mission_on(open_floor(), todo, slot_poses)
+    }
+
+    /// An empty floor for the default 30 × 30 cm body.
+    fn open_floor() -> FreeSpace {
+        FreeSpace::empty(Footprint::centred(0.30, 0.30, false), LOOK_CLEARANCE_M)
+    }
+
+    /// [`mission_with_slots`] on `floor`.
+    fn mission_on(
+        floor: FreeSpace,
+        todo: Vec<Action>,
+        slot_poses: BTreeMap<WaypointId, Pose2>,
+    ) -> Mission<FakeNavigator, Script> {
         Mission::new(
             MissionConfig::default(),
             FakeNavigator::default(),
@@ -1729,7 +1744,7 @@ mod tests {
                 todo,
                 ..Script::default()
             },
-            FreeSpace::empty(Footprint::centred(0.30, 0.30, false), LOOK_CLEARANCE_M),
+            floor,
             slot_poses,
         )
     }
@@ -2647,9 +2662,8 @@ mod tests {
         stall_ticks: u32,
         stalls_after_a_regrip: bool,
     ) -> (Vec<MissionEvent>, Vec<f64>, Vec<bool>) {
-        let open_floor = FreeSpace::empty(Footprint::centred(0.30, 0.30, false), LOOK_CLEARANCE_M);
         let (events, grips, magnet, _) = carry_jammed_at_a_drop(
-            &open_floor,
+            &open_floor(),
             Pose2::default(),
             stall_ticks,
             stalls_after_a_regrip,
@@ -2667,16 +2681,7 @@ mod tests {
         stalls_after_a_regrip: bool,
     ) -> (Vec<MissionEvent>, Vec<f64>, Vec<bool>, f64) {
         use crate::field::{PART_DEPTH_M, PICK_STANDOFF_M};
-        let mut m = Mission::new(
-            MissionConfig::default(),
-            FakeNavigator::default(),
-            Script {
-                todo: vec![A],
-                ..Script::default()
-            },
-            floor.clone(),
-            BTreeMap::from([(A.drop, drop)]),
-        );
+        let mut m = mission_on(floor.clone(), vec![A], BTreeMap::from([(A.drop, drop)]));
         m.navigator.moving = Some(BodyTwist::default());
         let (mut events, mut grips, mut magnet) = (Vec::new(), Vec::new(), Vec::new());
         let (mut least_gap_m, mut released) = (f64::INFINITY, false);
