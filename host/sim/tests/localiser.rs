@@ -445,6 +445,73 @@ fn a_kidnapped_robot_is_found_again() {
     );
 }
 
+/// Issue 17 (traced on the fault bench: a Mega unplugged in a turn with the IMU dead): a
+/// lost filter does not take beacons that do not fix the pose on their own (one pole and two
+/// ghosts that agree with its stale estimate, say clutter where the beacons would be seen
+/// from it): it stays lost, and finds the pose once three or more beacons agree.
+#[test]
+fn a_lost_filter_is_not_held_by_ghosts_that_agree_with_its_stale_estimate() {
+    let truth = parked(0.0);
+    let mut loc = localiser(truth);
+    run(&mut loc, &Scenario::new(parked, 3.0, 8));
+    // Turned 20° and moved 7 cm with the wheels and gyro silent: the estimate stays behind.
+    let moved = offset(truth, 0.05, -0.05, -20.0);
+    let stale = loc.pose();
+    let lidar = |p: Pose2| p.compose(RobotConfig::default().lidar_mount());
+    let circles = beacon_circles();
+    // Pole-shaped ghosts where beacons 2 and 3 would be seen from the stale estimate.
+    let ghost = |b: usize| {
+        let seen = lidar(stale).inverse_transform_point(circles[b].center);
+        Circle::new(lidar(moved).transform_point(seen), circles[b].radius_m)
+    };
+    let one_and_two_ghosts = vec![circles[0], ghost(2), ghost(3)];
+    let mut rng = SimRng::new(3);
+    let mut t = 3_000_000;
+    let mut scan_with = |loc: &mut Localiser, poles: &[Circle]| {
+        t += 140_000;
+        for k in 1..=7 {
+            loc.on_odometry(t - 140_000 + k * 20_000, BodyIncrement::default());
+        }
+        let scan = synthetic_scan(
+            t as f64 - 150_000.0,
+            &|_| moved,
+            &RobotConfig::default(),
+            poles,
+            0.01,
+            &mut rng,
+        );
+        loc.on_scan(&scan);
+    };
+    // Every beacon outside its search region for `relock_after_scans` scans: lost.
+    for _ in 0..LocalisationConfig::default().relock_after_scans {
+        scan_with(&mut loc, &circles);
+    }
+    assert!(loc.health().relocking, "{:?}", loc.health());
+    for _ in 0..10 {
+        scan_with(&mut loc, &one_and_two_ghosts);
+        let h = loc.health();
+        let heading_error = wrap_angle(loc.pose().yaw_rad - moved.yaw_rad).abs();
+        let position_error = loc.pose().position().distance(moved.position());
+        assert!(
+            heading_error <= 3.0 * h.heading_std_rad && position_error <= 3.0 * h.position_std_m,
+            "confidently wrong: {:?} against {moved:?}, {h:?}",
+            loc.pose()
+        );
+    }
+    assert!(loc.health().relocking, "{:?}", loc.health());
+    assert!(loc.health().relocks_refused >= 10, "{:?}", loc.health());
+    for _ in 0..3 {
+        scan_with(&mut loc, &circles);
+    }
+    assert!(!loc.health().relocking, "{:?}", loc.health());
+    assert!(
+        loc.pose().position().distance(moved.position()) < 0.01
+            && wrap_angle(loc.pose().yaw_rad - moved.yaw_rad).abs() < 0.5_f64.to_radians(),
+        "{:?} against {moved:?}",
+        loc.pose()
+    );
+}
+
 #[test]
 fn reset_keeps_the_bias_and_restores_the_uncertainty() {
     let mut loc = localiser(parked(0.0));

@@ -23,6 +23,7 @@ use ratf_core::drivers::imu::ImuSample;
 use ratf_core::drivers::x4::scan::Scan;
 use ratf_core::field::geometry::{Pose2, wrap_angle};
 use ratf_core::field::{Field, PartColor};
+use ratf_core::localisation::Health;
 use ratf_core::mission::Activity;
 use ratf_core::planning::tasks::{Place, State};
 use ratf_core::runtime::{Core, DeviceKind, Input, StepView};
@@ -569,30 +570,7 @@ impl Deriver {
                     .map_or_else(|| "-".into(), |t| format!("{:.3}", t.as_secs_f64())),
             )],
         };
-        let lost = health.scans_without_beacons >= self.config.localisation.relock_after_scans;
-        let localiser = DiagnosticStatus {
-            level: if lost {
-                DiagnosticStatus::WARN
-            } else {
-                DiagnosticStatus::OK
-            },
-            name: "ratf: localiser".into(),
-            message: format!(
-                "σ {:.3} m, {:.2}°",
-                health.position_std_m,
-                health.heading_std_rad.to_degrees()
-            ),
-            hardware_id: String::new(),
-            values: vec![
-                value("position_std_m", health.position_std_m),
-                value("heading_std_rad", health.heading_std_rad),
-                value("scans_applied", health.scans_applied),
-                value("beacons_used", health.beacons_used),
-                value("beacons_gated", health.beacons_gated),
-                value("scans_without_beacons", health.scans_without_beacons),
-                value("relocks", health.relocks),
-            ],
-        };
+        let localiser = localiser_status(&health);
         let mission = DiagnosticStatus {
             level: if status.stopped {
                 DiagnosticStatus::WARN
@@ -677,6 +655,37 @@ fn part_color(color: PartColor) -> ColorRgba {
         PartColor::Red => ColorRgba::rgb(0.9, 0.1, 0.1),
         PartColor::Green => ColorRgba::rgb(0.1, 0.8, 0.1),
         PartColor::Blue => ColorRgba::rgb(0.1, 0.3, 0.9),
+    }
+}
+
+/// The localiser's diagnostic: a warning while it is lost (`Health::relocking`: it raised
+/// its uncertainty after scans without a beacon and no scan has fixed the pose since).
+fn localiser_status(health: &Health) -> DiagnosticStatus {
+    DiagnosticStatus {
+        level: if health.relocking {
+            DiagnosticStatus::WARN
+        } else {
+            DiagnosticStatus::OK
+        },
+        name: "ratf: localiser".into(),
+        message: format!(
+            "σ {:.3} m, {:.2}°{}",
+            health.position_std_m,
+            health.heading_std_rad.to_degrees(),
+            if health.relocking { ", lost" } else { "" }
+        ),
+        hardware_id: String::new(),
+        values: vec![
+            value("position_std_m", health.position_std_m),
+            value("heading_std_rad", health.heading_std_rad),
+            value("scans_applied", health.scans_applied),
+            value("beacons_used", health.beacons_used),
+            value("beacons_gated", health.beacons_gated),
+            value("scans_without_beacons", health.scans_without_beacons),
+            value("relocks", health.relocks),
+            value("relocking", health.relocking),
+            value("relocks_refused", health.relocks_refused),
+        ],
     }
 }
 
@@ -793,6 +802,26 @@ mod tests {
         let markers = field_markers(&field, Time::default());
         assert_eq!(markers.markers.len(), 1 + field.obstacles().len());
         assert!(to_cdr(&markers).is_ok());
+    }
+
+    /// A lost localiser warns; before, the warning compared `scans_without_beacons` with
+    /// the relock limit, which the localiser resets to 0 on reaching it, so it never came.
+    #[test]
+    fn a_lost_localiser_is_a_warning_and_a_found_one_is_not() {
+        let lost = Health {
+            relocking: true,
+            relocks: 1,
+            ..Health::default()
+        };
+        let status = localiser_status(&lost);
+        assert_eq!(status.level, DiagnosticStatus::WARN, "{status:?}");
+        assert!(status.message.ends_with(", lost"), "{status:?}");
+        let found = Health {
+            scans_without_beacons: 2,
+            relocks: 1,
+            ..Health::default()
+        };
+        assert_eq!(localiser_status(&found).level, DiagnosticStatus::OK);
     }
 
     #[test]

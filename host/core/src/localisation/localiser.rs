@@ -9,6 +9,7 @@ use super::ekf::{
 };
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
+use super::relock::{MIN_FIX_BEACONS, unique_fix};
 use super::{Health, PoseEstimator, ScanReport, chi2_quantile};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
@@ -406,6 +407,24 @@ impl Localiser {
         self.health.inflations += 1;
     }
 
+    /// A lost filter's candidates: per beacon, only the one that fixes the pose with the
+    /// others ([`unique_fix`]), or none at all when the scan's beacons do not fix it on their
+    /// own.
+    fn fixing_candidates(
+        &mut self,
+        prediction: Pose2,
+        mut candidates: Vec<Vec<Observation>>,
+    ) -> Vec<Vec<Observation>> {
+        let choice = unique_fix(prediction, &candidates, &self.beacons, self.mount);
+        if choice.is_none() {
+            self.health.relocks_refused += 1;
+        }
+        for (obs, pick) in candidates.iter_mut().zip(choice.unwrap_or_default()) {
+            *obs = pick.map(|i| obs[i]).into_iter().collect();
+        }
+        candidates
+    }
+
     /// After `relock_after_scans` scans without a beacon, raise the pose variances back to
     /// the reset values (the mean is kept).
     fn relock_if_lost(&mut self, state: &mut EkfState, report: &ScanReport) {
@@ -419,6 +438,7 @@ impl Localiser {
         }
         self.health.scans_without_beacons = 0;
         self.health.relocks += 1;
+        self.health.relocking = true;
         let reset = EkfState::new(state.pose(), 0.0, 0.0, &self.config);
         for i in X..=THETA {
             // Raising diagonal entries keeps the covariance positive semi-definite.
@@ -453,7 +473,7 @@ impl JointCorrection {
 }
 
 /// The χ² 99 % quantile for `dof` degrees of freedom.
-fn chi2_99(dof: usize) -> f64 {
+pub(super) fn chi2_99(dof: usize) -> f64 {
     const Z_99: f64 = 2.326;
     chi2_quantile(dof as f64, Z_99)
 }
@@ -589,6 +609,11 @@ impl PoseEstimator for Localiser {
                     .collect()
             })
             .collect();
+        let candidates = if self.health.relocking {
+            self.fixing_candidates(state.pose(), candidates)
+        } else {
+            candidates
+        };
         self.inflate_if_inconsistent(&mut state, &candidates);
         // The nearest beacons first (their predicted positions are the best known when the
         // heading is uncertain): each update narrows the choice among the next one's
@@ -603,6 +628,9 @@ impl PoseEstimator for Localiser {
         });
         for i in order {
             self.offer(&mut state, &candidates[i], &beacons[i], &mut report);
+        }
+        if report.beacons_used as usize >= MIN_FIX_BEACONS {
+            self.health.relocking = false;
         }
         self.relock_if_lost(&mut state, &report);
         let (config, density) = (&self.config, self.gyro_noise_density);
@@ -642,6 +670,7 @@ impl PoseEstimator for Localiser {
             &self.config,
         );
         self.history = History::new(state, time_us, self.config.history_steps);
+        self.health.relocking = false;
         self.refresh_health();
     }
 }

@@ -79,7 +79,11 @@
 //! the covariance is scaled up until that NIS is typical, so the scan takes the slip at
 //! once rather than a third of it per scan. When no beacon is applied for
 //! `relock_after_scans` scans in a row, the pose covariance is raised back to the reset
-//! values around the current mean, so that the beacons can be found and taken again.
+//! values around the current mean, so that the beacons can be found and taken again. The
+//! filter is then lost ([`Health::relocking`]) until a scan fixes the pose again: its
+//! beacons are taken only when three or more agree on one pose and no other choice among
+//! their candidates agrees on another ([`relock`]); the wide search regions of a lost
+//! filter hold clutter, and a wrong candidate taken then would be tracked for seconds.
 //!
 //! **Errors common to every scan** ([`consider`]). After calibration the beacons still
 //! stand, as a whole, a few millimetres and about a tenth of a degree off where the
@@ -104,6 +108,7 @@ pub mod gyro;
 pub mod history;
 pub mod localiser;
 pub mod original;
+pub mod relock;
 
 use nalgebra::Matrix3;
 
@@ -192,6 +197,13 @@ pub struct Health {
     /// Times the pose uncertainty was raised after [`Health::scans_without_beacons`]
     /// reached the configured limit.
     pub relocks: u64,
+    /// Lost: the pose uncertainty was raised ([`Health::relocks`]) and no scan since has
+    /// fixed the pose again with at least three beacons that agree ([`relock`]).
+    pub relocking: bool,
+    /// Scans of a lost filter whose beacons did not fix the pose on their own (fewer than
+    /// three that agree, or two choices of candidates that agree on different poses), so
+    /// none of them was taken.
+    pub relocks_refused: u64,
     /// Scans whose beacons disagreed with the prediction as a whole (median NIS above
     /// `inflate_above_median_nis`, or the correction they agree on above
     /// `inflate_above_joint_nis`), so the pose covariance was scaled up (unmodelled slip).
