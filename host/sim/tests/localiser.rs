@@ -413,6 +413,32 @@ fn scans_are_de_skewed_while_turning_fast() {
     );
 }
 
+/// Seven still odometry steps after `t_us` and then one scan of `poles` taken by a robot
+/// standing at `truth` (its wheels and the estimate do not know it moved there); the time
+/// of the last step, µs.
+fn scan_standing(
+    loc: &mut Localiser,
+    t_us: u64,
+    truth: Pose2,
+    poles: &[Circle],
+    rng: &mut SimRng,
+) -> u64 {
+    let t = t_us + 140_000;
+    for k in 1..=7 {
+        loc.on_odometry(t - 140_000 + k * 20_000, BodyIncrement::default());
+    }
+    let scan = synthetic_scan(
+        t as f64 - 150_000.0,
+        &|_| truth,
+        &RobotConfig::default(),
+        poles,
+        0.01,
+        rng,
+    );
+    loc.on_scan(&scan);
+    t
+}
+
 #[test]
 fn a_kidnapped_robot_is_found_again() {
     let truth = parked(0.0);
@@ -423,19 +449,7 @@ fn a_kidnapped_robot_is_found_again() {
     let mut rng = SimRng::new(2);
     let mut t = 3_000_000;
     for _ in 0..21 {
-        t += 20_000 * 7;
-        for k in 1..=7 {
-            loc.on_odometry(t - 140_000 + k * 20_000, BodyIncrement::default());
-        }
-        let scan = synthetic_scan(
-            t as f64 - 150_000.0,
-            &|_| moved,
-            &RobotConfig::default(),
-            &beacon_circles(),
-            0.01,
-            &mut rng,
-        );
-        loc.on_scan(&scan);
+        t = scan_standing(&mut loc, t, moved, &beacon_circles(), &mut rng);
     }
     assert!(loc.health().relocks >= 1, "{:?}", loc.health());
     assert!(
@@ -468,19 +482,7 @@ fn a_lost_filter_is_not_held_by_ghosts_that_agree_with_its_stale_estimate() {
     let mut rng = SimRng::new(3);
     let mut t = 3_000_000;
     let mut scan_with = |loc: &mut Localiser, poles: &[Circle]| {
-        t += 140_000;
-        for k in 1..=7 {
-            loc.on_odometry(t - 140_000 + k * 20_000, BodyIncrement::default());
-        }
-        let scan = synthetic_scan(
-            t as f64 - 150_000.0,
-            &|_| moved,
-            &RobotConfig::default(),
-            poles,
-            0.01,
-            &mut rng,
-        );
-        loc.on_scan(&scan);
+        t = scan_standing(loc, t, moved, poles, &mut rng);
     };
     // Every beacon outside its search region for `relock_after_scans` scans: lost.
     for _ in 0..LocalisationConfig::default().relock_after_scans {

@@ -185,6 +185,14 @@ mod tests {
         Pose2::new(-0.01, -0.03, -26.4_f64.to_radians())
     }
 
+    /// Per beacon, one candidate: where the lidar at [`truth`] sees it.
+    fn every_beacon_seen_from_the_truth(beacons: &[Beacon; 4]) -> Vec<Vec<Observation>> {
+        beacons
+            .iter()
+            .map(|b| vec![seen(truth(), b, 0.0)])
+            .collect()
+    }
+
     /// The lost estimate of the trace in this module's doc: 6 cm and 20° off.
     fn lost() -> Pose2 {
         Pose2::new(-0.017, 0.027, -6.0_f64.to_radians())
@@ -194,10 +202,7 @@ mod tests {
     fn three_beacons_that_agree_fix_the_pose_from_20_degrees_off() {
         let field = Field::competition();
         let beacons = field.beacons();
-        let mut candidates: Vec<Vec<Observation>> = beacons
-            .iter()
-            .map(|b| vec![seen(truth(), b, 0.0)])
-            .collect();
+        let mut candidates = every_beacon_seen_from_the_truth(beacons);
         candidates[1].clear();
         let choice = unique_fix(lost(), &candidates, beacons, mount()).expect("a fix");
         assert_eq!(choice, [Some(0), None, Some(0), Some(0)]);
@@ -218,10 +223,7 @@ mod tests {
     fn two_beacons_do_not_fix_a_lost_pose() {
         let field = Field::competition();
         let beacons = field.beacons();
-        let mut candidates: Vec<Vec<Observation>> = beacons
-            .iter()
-            .map(|b| vec![seen(truth(), b, 0.0)])
-            .collect();
+        let mut candidates = every_beacon_seen_from_the_truth(beacons);
         candidates[1].clear();
         candidates[2].clear();
         assert_eq!(unique_fix(lost(), &candidates, beacons, mount()), None);
@@ -231,10 +233,7 @@ mod tests {
     fn a_ghost_beside_a_pole_is_left_out_of_the_fix() {
         let field = Field::competition();
         let beacons = field.beacons();
-        let mut candidates: Vec<Vec<Observation>> = beacons
-            .iter()
-            .map(|b| vec![seen(truth(), b, 0.0)])
-            .collect();
+        let mut candidates = every_beacon_seen_from_the_truth(beacons);
         // A leg 25 cm beside beacon 0, listed first.
         candidates[0].insert(0, seen(truth(), &beacons[0], 0.25));
         let choice = unique_fix(lost(), &candidates, beacons, mount()).expect("a fix");
