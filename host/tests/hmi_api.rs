@@ -241,6 +241,7 @@ const SCHEMA: &[(&str, &str)] = &[
     ("/health/wheel_hz", "number"),
     ("/health/scan_hz", "number"),
     ("/health/imu_hz", "number"),
+    ("/health/lost", "bool"),
     ("/health/faults", "array"),
     ("/events", "array"),
     ("/events/0/t_s", "number"),

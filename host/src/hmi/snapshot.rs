@@ -129,8 +129,12 @@ pub struct HealthView {
     pub mega_resets: u64,
     /// Lidar revolutions whose packets failed their check code (integrity errors).
     pub scans_with_dropped_packets: u64,
-    /// Lidar scans in a row with no beacon used.
+    /// Lidar scans in a row with no beacon used (the localiser relocks at its
+    /// `relock_after_scans`, and counts from 0 again).
     pub scans_without_beacons: u32,
+    /// The localiser is lost: it relocked and no scan since has fixed the pose with three or
+    /// more beacons that agree (`localisation::Health::relocking`).
+    pub lost: bool,
     /// Device faults so far, in the core's words.
     pub faults: Vec<String>,
 }

@@ -266,6 +266,7 @@ impl HmiTap {
                 mega_resets: status.inputs.mega_resets,
                 scans_with_dropped_packets: self.scans_with_dropped_packets,
                 scans_without_beacons: health.scans_without_beacons,
+                lost: health.relocking,
                 faults: self.faults.clone(),
             },
             events: self.events[self.events.len().saturating_sub(TIMELINE_LINES)..].to_vec(),

@@ -184,7 +184,8 @@
     row(health, "IMU", h.imu_hz > 0 ? fmt(h.imu_hz, 0) + " /s" : "none");
     row(health, "beacons (last scan)", `${s.beacons.used} used, ${s.beacons.gated} gated, ${s.beacons.rejected} rejected, ${s.beacons.unseen} unseen`,
       s.beacons.used >= 2 ? "good" : "poor");
-    row(health, "scans without beacons", String(h.scans_without_beacons), h.scans_without_beacons > 10 ? "poor" : "");
+    row(health, "localiser", h.lost ? "lost: waiting for three beacons that agree" : "found", h.lost ? "poor" : "good");
+    row(health, "scans without beacons", String(h.scans_without_beacons), h.scans_without_beacons > 0 ? "poor" : "");
     row(health, "integrity", `${h.scans_with_dropped_packets} lidar scans with bad packets, ${h.mega_resets} Mega resets`, h.scans_with_dropped_packets ? "poor" : "");
     row(health, "faults", h.faults.length ? h.faults.join("; ") : "none", h.faults.length ? "poor" : "good");
     if (s.replay) {
