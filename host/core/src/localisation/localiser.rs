@@ -10,7 +10,7 @@ use super::ekf::{
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
 use super::relock::{MIN_FIX_BEACONS, unique_fix};
-use super::{Health, PoseEstimator, ScanReport, chi2_quantile};
+use super::{Health, PoseEstimator, ScanReport, chi2_99};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
@@ -470,12 +470,6 @@ impl JointCorrection {
             (self.correction.transpose() * t * self.correction)[(0, 0)]
         })
     }
-}
-
-/// The χ² 99 % quantile for `dof` degrees of freedom.
-pub(super) fn chi2_99(dof: usize) -> f64 {
-    const Z_99: f64 = 2.326;
-    chi2_quantile(dof as f64, Z_99)
 }
 
 /// The log of the smallest scale in [1, e^`max_log_scale`] at which `too_large` turns false

@@ -233,3 +233,10 @@ pub fn chi2_quantile(dof: f64, z: f64) -> f64 {
     let h = 2.0 / (9.0 * k);
     k * (1.0 - h + z * h.sqrt()).powi(3)
 }
+
+/// The χ² 99 % quantile for `dof` degrees of freedom: the localiser's test of whether a
+/// scan's beacons agree with each other.
+pub(crate) fn chi2_99(dof: usize) -> f64 {
+    const Z_99: f64 = 2.326;
+    chi2_quantile(dof as f64, Z_99)
+}

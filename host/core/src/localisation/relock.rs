@@ -14,10 +14,10 @@
 //! residual of their least-squares fit within the χ² 99 % quantile), with no other choice
 //! of candidates, as many beacons, that agrees on a different pose.
 
-use nalgebra::{Matrix3, Vector2, Vector3, Vector4};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3, Vector4};
 
+use super::chi2_99;
 use super::ekf::{Observation, predicted_measurement};
-use super::localiser::chi2_99;
 use crate::field::Beacon;
 use crate::field::geometry::{Pose2, wrap_angle};
 
@@ -60,40 +60,39 @@ pub fn unique_fix(
     mount: Pose2,
 ) -> Option<[Option<usize>; 4]> {
     let start = Vector3::new(prediction.x, prediction.y, prediction.yaw_rad);
-    let mut best: Option<(usize, [Option<usize>; 4], Fix)> = None;
-    let mut agreeing: Vec<Fix> = Vec::new();
-    for choice in choices(candidates) {
-        let chosen: Vec<(&Observation, &Beacon)> = choice
-            .iter()
-            .zip(candidates)
-            .zip(beacons)
-            .filter_map(|((pick, obs), beacon)| pick.map(|i| (&obs[i], beacon)))
-            .collect();
-        if chosen.len() < MIN_FIX_BEACONS {
-            continue;
-        }
-        let Some(fix) = fit(start, &chosen, mount) else {
-            continue;
-        };
-        if fix.residual_chi2 > chi2_99(2 * chosen.len() - 3) {
-            continue;
-        }
-        let count = chosen.len();
-        match best {
-            Some((n, _, _)) if n > count => continue,
-            Some((n, _, _)) if n < count => agreeing.clear(),
-            _ => {}
-        }
-        agreeing.push(fix);
-        if best.is_none_or(|(n, _, b)| n < count || fix.residual_chi2 < b.residual_chi2) {
-            best = Some((count, choice, fix));
-        }
-    }
-    let (_, choice, fix) = best?;
-    agreeing
+    // Every choice whose beacons agree, with how many beacons it takes.
+    let agreeing: Vec<(usize, [Option<usize>; 4], Fix)> = choices(candidates)
+        .into_iter()
+        .filter_map(|choice| {
+            let chosen: Vec<(&Observation, &Beacon)> = choice
+                .iter()
+                .zip(candidates)
+                .zip(beacons)
+                .filter_map(|((pick, obs), beacon)| pick.map(|i| (&obs[i], beacon)))
+                .collect();
+            if chosen.len() < MIN_FIX_BEACONS {
+                return None;
+            }
+            let fix = fit(start, &chosen, mount)?;
+            (fix.residual_chi2 <= chi2_99(2 * chosen.len() - 3)).then_some((
+                chosen.len(),
+                choice,
+                fix,
+            ))
+        })
+        .collect();
+    let most = agreeing.iter().map(|(count, _, _)| *count).max()?;
+    let widest: Vec<&(usize, [Option<usize>; 4], Fix)> = agreeing
         .iter()
-        .all(|other| same_fix(&fix, other))
-        .then_some(choice)
+        .filter(|(count, _, _)| *count == most)
+        .collect();
+    let (_, choice, fix) = widest
+        .iter()
+        .min_by(|a, b| a.2.residual_chi2.total_cmp(&b.2.residual_chi2))?;
+    widest
+        .iter()
+        .all(|(_, _, other)| same_fix(fix, other))
+        .then_some(*choice)
 }
 
 /// Every choice of at most one candidate per beacon (by index, the first
@@ -125,6 +124,10 @@ fn same_fix(a: &Fix, b: &Fix) -> bool {
 /// The pose the observations agree on, by Gauss–Newton on (x, y, θ) from `start` weighted
 /// by each observation's covariance; `None` for a singular geometry.
 fn fit(start: Vector3<f64>, chosen: &[(&Observation, &Beacon)], mount: Pose2) -> Option<Fix> {
+    let weights: Vec<Matrix2<f64>> = chosen
+        .iter()
+        .map(|(obs, _)| obs.covariance.try_inverse())
+        .collect::<Option<_>>()?;
     let mut pose = start;
     let mut residual_chi2 = f64::INFINITY;
     for _ in 0..FIT_ITERATIONS {
@@ -132,10 +135,9 @@ fn fit(start: Vector3<f64>, chosen: &[(&Observation, &Beacon)], mount: Pose2) ->
         let mut information = Matrix3::zeros();
         let mut projected = Vector3::zeros();
         residual_chi2 = 0.0;
-        for (obs, beacon) in chosen {
+        for ((obs, beacon), w) in chosen.iter().zip(&weights) {
             let (h, jac) = predicted_measurement(&mean, beacon.circle.center, mount)?;
             let nu = Vector2::new(obs.range_m - h.x, wrap_angle(obs.bearing_rad - h.y));
-            let w = obs.covariance.try_inverse()?;
             let j = jac.fixed_view::<2, 3>(0, 0).into_owned();
             information += j.transpose() * w * j;
             projected += j.transpose() * w * nu;
@@ -156,8 +158,6 @@ fn fit(start: Vector3<f64>, chosen: &[(&Observation, &Beacon)], mount: Pose2) ->
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::Matrix2;
-
     use super::*;
     use crate::field::Field;
 
