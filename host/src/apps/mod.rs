@@ -21,4 +21,5 @@ pub mod scripts;
 pub mod serve_pty;
 pub mod soak;
 pub mod time_split;
+pub mod tracked_script;
 pub mod tune;

@@ -10,6 +10,13 @@ use ratf_core::runtime::{Devices, Input, OperatorCommand, Outputs, Stamped, Time
 pub trait OperatorScript {
     /// The command at `seconds` since the script started.
     fn command_at(&self, seconds: f64) -> OperatorCommand;
+    /// The command at `seconds` for a robot the core estimates at `estimate` (its last
+    /// step's pose, `None` before any): a script that closes its loop on the estimate
+    /// overrides this; by default, the open-loop command.
+    fn command_with(&self, seconds: f64, estimate: Option<Pose2>) -> OperatorCommand {
+        let _ = estimate;
+        self.command_at(seconds)
+    }
     /// When the script ends, s.
     fn duration_s(&self) -> f64;
 }
@@ -51,6 +58,7 @@ pub struct ScriptedDrive<'a, D, S: ?Sized> {
     clock: ScriptClock,
     held_tick: Option<Stamped>,
     finished: bool,
+    estimate: Option<Pose2>,
 }
 
 impl<'a, D: Devices, S: OperatorScript + ?Sized> ScriptedDrive<'a, D, S> {
@@ -62,7 +70,14 @@ impl<'a, D: Devices, S: OperatorScript + ?Sized> ScriptedDrive<'a, D, S> {
             clock: ScriptClock::default(),
             held_tick: None,
             finished: false,
+            estimate: None,
         }
+    }
+
+    /// The core's pose estimate after its last step, for a script that closes its loop on
+    /// it ([`OperatorScript::command_with`]).
+    pub fn observe_estimate(&mut self, estimate: Pose2) {
+        self.estimate = Some(estimate);
     }
 
     /// The script has run to its end.
@@ -89,8 +104,10 @@ impl<D: Devices, S: OperatorScript + ?Sized> Devices for ScriptedDrive<'_, D, S>
         match self.clock.observe(&input) {
             Some(seconds) if matches!(input.input, Input::HostTick) => {
                 self.finished = seconds > self.script.duration_s();
-                let command =
-                    Stamped::new(input.time, Input::Operator(self.script.command_at(seconds)));
+                let command = Stamped::new(
+                    input.time,
+                    Input::Operator(self.script.command_with(seconds, self.estimate)),
+                );
                 self.held_tick = Some(input);
                 Ok(Some(command))
             }

@@ -11,8 +11,8 @@ use ratf_core::field::Field;
 use ratf_core::field::geometry::Pose2;
 use ratf_core::runtime::{Core, Devices, Flow, Input, StepView, Tap, run};
 
-use crate::apps::operator_script::{ScriptClock, ScriptedDrive};
-use crate::apps::scripts::{Script, StopWindow};
+use crate::apps::operator_script::{OperatorScript, ScriptClock, ScriptedDrive};
+use crate::apps::scripts::StopWindow;
 
 /// Time after a stop begins for the robot to come to rest, s (the legs' 0.3 s ramp and the
 /// wheels' settling).
@@ -110,12 +110,13 @@ pub struct Driven<D> {
     pub finished: bool,
 }
 
-/// Drive `script` with `core` on `devices` (every tap sees every step) and collect the
-/// stops of `windows`, in the beliefs of `config`; stops early when `quit` says so.
-pub fn drive_and_collect<D: Devices>(
+/// Drive `script` with `core` on `devices` (every tap sees every step; the script sees the
+/// core's estimate after each, [`OperatorScript::command_with`]) and collect the stops of
+/// `windows`, in the beliefs of `config`; stops early when `quit` says so.
+pub fn drive_and_collect<D: Devices, S: OperatorScript + ?Sized>(
     core: &mut Core,
     devices: D,
-    script: &Script,
+    script: &S,
     windows: Vec<StopWindow>,
     config: &Config,
     taps: &mut [&mut dyn Tap],
@@ -129,7 +130,8 @@ pub fn drive_and_collect<D: Devices>(
         for tap in taps.iter_mut() {
             all.push(&mut **tap);
         }
-        run(core, &mut scripted, &mut all, |_, devices| {
+        run(core, &mut scripted, &mut all, |core, devices| {
+            devices.observe_estimate(core.robot().pose());
             if devices.finished() || quit() {
                 Flow::Stop
             } else {

@@ -209,10 +209,19 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         config.sim.world = world;
     }
     let mut runs: Vec<SimOdometry> = Vec::new();
+    let mut refused: Vec<u64> = Vec::new();
     for seed in args.seed..args.seed + args.seeds.max(1) {
         config.sim.seed = seed;
-        let run =
-            run_in_sim(&config, args.record.as_deref()).with_context(|| format!("seed {seed}"))?;
+        let run = match run_in_sim(&config, args.record.as_deref()) {
+            Ok(run) => run,
+            // Over many worlds, one whose calibration is refused is a figure, not the end.
+            Err(error) if args.seeds > 1 => {
+                std::println!("seed {seed}: refused: {error}");
+                refused.push(seed);
+                continue;
+            }
+            Err(error) => return Err(anyhow::Error::new(error).context(format!("seed {seed}"))),
+        };
         let f = &run.fit;
         std::println!(
             "seed {seed}: wheel diameter {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); \
@@ -244,12 +253,21 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
     let mean = |f: &dyn Fn(&SimOdometry) -> f64| {
         runs.iter().map(|r| f(r).abs()).sum::<f64>() / runs.len().max(1) as f64
     };
+    if runs.is_empty() {
+        anyhow::bail!("every seed's calibration was refused ({refused:?})");
+    }
     std::println!(
-        "{} seeds ({} world): |wheel radius error| mean {:.3} %, worst {:.3} % (before: worst \
-         {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %); \
-         |strafe factor error| mean {:.3}, worst {:.3} (before: worst {:.3})",
+        "{} seeds ({} world{}): |wheel radius error| mean {:.3} %, worst {:.3} % (before: \
+         worst {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %); \
+         |strafe factor error| mean {:.3}, worst {:.3} (before: worst {:.3}); {} collisions, \
+         worst drive {}",
         runs.len(),
         config.sim.world,
+        if refused.is_empty() {
+            String::new()
+        } else {
+            format!("; refused, not counted: seeds {refused:?}")
+        },
         mean(&|r| r.radius_error_pct),
         worst(&|r| r.radius_error_pct),
         worst(&|r| r.uncalibrated_radius_error_pct),
@@ -259,6 +277,8 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         mean(&|r| r.strafe_factor_error),
         worst(&|r| r.strafe_factor_error),
         worst(&|r| config.robot.strafe_factor - r.true_strafe_factor),
+        runs.iter().map(|r| r.collisions).sum::<u32>(),
+        runs.iter().map(|r| r.collisions).max().unwrap_or(0),
     );
     if let Some(path) = &args.record {
         std::println!("recorded the odometry drive to {}", path.display());

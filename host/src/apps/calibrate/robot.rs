@@ -12,8 +12,9 @@ use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::runtime::Core;
 
 use super::drive::drive_and_collect;
+use crate::apps::operator_script::OperatorScript;
 use crate::apps::run::{RunError, open_devices};
-use crate::apps::scripts::{Script, StopWindow, calibration_drive};
+use crate::apps::scripts::{StopWindow, calibration_drive};
 use crate::devices::{DeviceError, Shared};
 use crate::recording::{Recorder, RecordingError, Session};
 
@@ -130,25 +131,25 @@ pub fn open_recorder(
     Recorder::create(path, &session)
 }
 
-/// Drive `script` (robot-frame twists, as the operator's `Drive` commands into the core) on
-/// the devices of `config`, recorded to `recording` as a session of `kind`, and collect the
-/// stops of `windows`. `shared` carries the quit flag (wire the signals to it first) and
+/// Drive `script` (robot-frame twists, as the operator's `Drive` commands into the core)
+/// from `start` on the devices of `config`, recorded to `recording` as a session of `kind`,
+/// and collect the stops of `windows`. `shared` carries the quit flag (wire the signals to it first) and
 /// the panic flag; on every way out the robot gets zero references and magnet off. Never
 /// [`RobotCalibrateError::Fit`]: the caller fits.
-pub fn drive_on_robot(
+pub fn drive_on_robot<S: OperatorScript + ?Sized>(
     config: &Config,
-    (script, windows): (Script, Vec<StopWindow>),
+    (script, start, windows): (&S, Pose2, Vec<StopWindow>),
     kind: &str,
     recording: &Path,
     shared: &Shared,
 ) -> Result<RobotDrive, RobotCalibrateError> {
-    let mut core = Core::new(config, script.start).map_err(RunError::from)?;
-    let mut recorder = open_recorder(config, script.start, kind, recording).map_err(Box::new)?;
+    let mut core = Core::new(config, start).map_err(RunError::from)?;
+    let mut recorder = open_recorder(config, start, kind, recording).map_err(Box::new)?;
     let opened = open_devices(config, shared, Vec::new())?;
     let driven = drive_and_collect(
         &mut core,
         opened.devices,
-        &script,
+        script,
         windows,
         config,
         &mut [&mut recorder],
@@ -175,9 +176,10 @@ pub fn run_on_robot(
     options: &RobotOptions,
     shared: &Shared,
 ) -> Result<RobotCalibration, RobotCalibrateError> {
+    let (script, windows) = calibration_drive();
     let RobotDrive { stops, recording } = drive_on_robot(
         config,
-        calibration_drive(),
+        (&script, script.start, windows),
         "calibration",
         &options.recording,
         shared,
