@@ -1,5 +1,5 @@
 //! `ratf calibrate odometry --robot` end to end with no hardware: against `ratf sim
-//! --serve-pty` in the realistic world at seed 3 (the simulated Mega and X4 behind
+//! --serve-pty` in the realistic world at seed 16 (the simulated Mega and X4 behind
 //! pseudo-terminals, the world in real time), the lidar calibrated first as a team does
 //! (`ratf calibrate --robot` with the six pole-to-pole tape measures), then the 100 s
 //! odometry drive; then `--from-recording` on the recording that drive made.
@@ -13,12 +13,17 @@ use common::{Spawned, TempDir, float, one_at_a_time, read, robot_config, run_ok,
 use ratf_core::config::{Config, WorldProfile};
 use ratf_sim::truth::WorldTruth;
 
+/// The served world's seed: one whose wheels are off by more than twice the checks'
+/// tolerances before calibrating (wheel diameter +0.52 %, lx + ly −2.0 %), so the checks
+/// tell a fit from none.
+const SEED: u64 = 16;
+
 /// The served world's beliefs (no `--config`: the defaults) and its truth (the same draw
 /// the served world makes from its seed and profile).
 fn served_world() -> (Config, WorldTruth) {
     let mut config = Config::default();
     config.sim.world = WorldProfile::Realistic;
-    config.sim.seed = 3;
+    config.sim.seed = SEED;
     let truth = WorldTruth::draw(&config, 0.0);
     (config, truth)
 }
@@ -65,7 +70,7 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
     // The lidar first, in one served world.
     let lidar_dir = dir.join("lidar");
     std::fs::create_dir_all(&lidar_dir).expect("dir");
-    let (world, port) = serve(&lidar_dir, "3", &["--world", "realistic"]);
+    let (world, port) = serve(&lidar_dir, &SEED.to_string(), &["--world", "realistic"]);
     let robot = robot_config(&lidar_dir, &lidar_dir.join("dev/lidar"), port);
     let lidar_calibrated = dir.join("lidar.toml");
     let measures = day_measures(&config, &truth);
@@ -89,7 +94,7 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
     // Then the odometry drive, in a fresh served world of the same seed.
     let odometry_dir = dir.join("odometry");
     std::fs::create_dir_all(&odometry_dir).expect("dir");
-    let (_world, port) = serve(&odometry_dir, "3", &["--world", "realistic"]);
+    let (_world, port) = serve(&odometry_dir, &SEED.to_string(), &["--world", "realistic"]);
     let devices = robot_config(&odometry_dir, &odometry_dir.join("dev/lidar"), port);
     let robot = dir.join("robot.toml");
     with_devices(&lidar_calibrated, &devices, &robot);
@@ -140,10 +145,12 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
         driven.seen.join("\n")
     );
     eprintln!("{figures}");
-    // The simulated drive at this seed is within 0.03 % of both; the real-time drive
-    // through the devices' threads gets a margin, and stays well inside the errors before
-    // calibrating (+0.28 % and −1.37 %), so the check tells a fit from none.
-    let (diameter_tolerance_pct, lx_plus_ly_tolerance_pct) = (0.1, 0.3);
+    // The simulated drive at this seed is within 0.04 % of both. In real time the drive,
+    // closed loop on the estimate, steers with what the devices' threads' timing gave the
+    // localiser, so its fit is a draw from its spread (over the realistic world's seeds 1–20
+    // in the simulator: 0.17 % and 0.19 % at worst); the tolerances allow that and stay
+    // under half the errors before calibrating.
+    let (diameter_tolerance_pct, lx_plus_ly_tolerance_pct) = (0.2, 0.5);
     assert!(
         before_pct[0].abs() > 2.0 * diameter_tolerance_pct,
         "{figures}"
