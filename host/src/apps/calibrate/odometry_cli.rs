@@ -202,25 +202,46 @@ fn write(
     Ok(())
 }
 
+/// The drives of `count` seeds' worlds from `first` (with `record`, the one seed's drive
+/// recorded there), `each` told of every seed's run or refusal as it comes. With more than
+/// one seed a world whose calibration is refused is counted, not the end: the runs come
+/// back with the refused seeds; with one, its refusal is the error.
+fn drive_seeds(
+    config: &Config,
+    (first, count): (u64, u64),
+    record: Option<&Path>,
+    mut each: impl FnMut(u64, Result<&SimOdometry, &OdometryCalibrateError>),
+) -> anyhow::Result<(Vec<SimOdometry>, Vec<u64>)> {
+    let mut config = config.clone();
+    let (mut runs, mut refused) = (Vec::new(), Vec::new());
+    for seed in first..first + count.max(1) {
+        config.sim.seed = seed;
+        match run_in_sim(&config, record) {
+            Ok(run) => {
+                each(seed, Ok(&run));
+                runs.push(run);
+            }
+            Err(error) if count > 1 => {
+                each(seed, Err(&error));
+                refused.push(seed);
+            }
+            Err(error) => return Err(anyhow::Error::new(error).context(format!("seed {seed}"))),
+        }
+    }
+    Ok((runs, refused))
+}
+
 /// In the simulator.
 fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
     let (mut config, file) = load(args.config.as_deref(), false)?;
     if let Some(world) = args.world {
         config.sim.world = world;
     }
-    let mut runs: Vec<SimOdometry> = Vec::new();
-    let mut refused: Vec<u64> = Vec::new();
-    for seed in args.seed..args.seed + args.seeds.max(1) {
-        config.sim.seed = seed;
-        let run = match run_in_sim(&config, args.record.as_deref()) {
+    let seeds = (args.seed, args.seeds);
+    let (runs, refused) = drive_seeds(&config, seeds, args.record.as_deref(), |seed, run| {
+        let run = match run {
             Ok(run) => run,
-            // Over many worlds, one whose calibration is refused is a figure, not the end.
-            Err(error) if args.seeds > 1 => {
-                std::println!("seed {seed}: refused: {error}");
-                refused.push(seed);
-                continue;
-            }
-            Err(error) => return Err(anyhow::Error::new(error).context(format!("seed {seed}"))),
+            Err(why) => return std::println!("seed {seed}: refused: {why}"),
         };
         let f = &run.fit;
         std::println!(
@@ -246,8 +267,7 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
             f.residual_m * 1e3,
             run.collisions
         );
-        runs.push(run);
-    }
+    })?;
     let worst =
         |f: &dyn Fn(&SimOdometry) -> f64| runs.iter().map(|r| f(r).abs()).fold(0.0, f64::max);
     let mean = |f: &dyn Fn(&SimOdometry) -> f64| {
@@ -449,6 +469,26 @@ mod tests {
                 "{line:?}: {error}"
             );
         }
+    }
+
+    /// The harsh world at seed 6 refuses its lidar calibration (its sightings and odometry
+    /// disagree): over several seeds it is named and the others are fitted; before, the
+    /// first refusal ended the run. Alone, its refusal is the error.
+    #[test]
+    fn over_several_seeds_a_refused_world_is_counted_and_the_others_fitted() {
+        let mut config = Config::default();
+        config.sim.world = WorldProfile::Harsh;
+        let mut told = Vec::new();
+        let (runs, refused) = drive_seeds(&config, (5, 2), None, |seed, run| {
+            told.push((seed, run.is_ok()));
+        })
+        .unwrap();
+        assert_eq!(told, [(5, true), (6, false)]);
+        assert_eq!(runs.len(), 1);
+        assert_eq!(runs[0].seed, 5);
+        assert_eq!(refused, [6]);
+        let error = drive_seeds(&config, (6, 1), None, |_, _| {}).unwrap_err();
+        assert!(format!("{error:#}").contains("seed 6"), "{error:#}");
     }
 
     #[test]
