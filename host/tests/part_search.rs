@@ -52,27 +52,42 @@ fn a_part_found_beside_the_magnet_after_a_mega_reset_is_centred_and_placed() {
     assert_eq!(row.given_up, 0, "{row:?}");
 }
 
-/// Seed 15, round 3 (the table's seeds): the lidar's cable is pulled as the robot docks a
-/// green part at machine B's lower input, 34 mm short of its drop pose; the core's hold lets
-/// the magnet go, the part lands in its slot and scores, and machine B (no delay) moves it to
-/// its output at once. Taken for lost, the part was looked for among the input's dividers
-/// (five collisions) and given up. The robot now asks the server and, shown the part
-/// placed, goes on: every round of the seed scores fully, touches nothing, gives nothing up.
+/// Seed 30, round 3 (the fault table's seeds): the lidar's cable is pulled as the robot
+/// carries a green part to machine B's lower input; the core's hold lets the magnet go near
+/// the drop. The part may lie in its slot, which the robot cannot tell, so it asks the
+/// server, which does not show it there; the robot then looks for it where it was last
+/// held, grips it again and places it: every round of the seed scores fully, touches
+/// nothing, gives nothing up. (Seed 15 pinned the server's yes here until the odometry
+/// drive closed its loop at `5bfd367` and moved that run; the yes is pinned in
+/// `ratf_core::mission`'s unit tests, and over seeds 1–160 no run of the lidar's or the
+/// Mega's replug or reset met it since.)
 #[test]
-fn a_part_a_hold_let_go_near_its_drop_is_placed_on_the_servers_word() {
+fn a_part_a_hold_let_go_near_its_drop_is_asked_for_then_looked_for() {
     use ratf_host::apps::fault_bench::FaultProgress;
     let mut config = Config::default();
     config.sim.world = WorldProfile::Realistic;
     let injections = [Injection::One(FaultKind::LidarReplug)];
-    let mut asked = 0;
-    let result = bench(&config, 15..=15, &injections, true, |progress| {
-        if let FaultProgress::Faulted(_, report, story) = progress {
-            let asking = story.iter().any(|line| line.contains("asking the server"));
-            asked += usize::from(asking && report.round == 3);
+    let (mut asked, mut looked) = (0, 0);
+    let result = bench(&config, 30..=30, &injections, true, |progress| {
+        if let FaultProgress::Faulted(_, report, story) = progress
+            && report.round == 3
+        {
+            asked += story
+                .iter()
+                .filter(|line| line.contains("asking the server"))
+                .count();
+            looked += story
+                .iter()
+                .filter(|line| line.contains("looking for it where it was last held"))
+                .count();
         }
     })
     .expect("the bench runs");
-    assert_eq!(asked, 1, "round 3 asks the server once");
+    assert_eq!(
+        (asked, looked),
+        (1, 1),
+        "round 3 asks the server once, then looks"
+    );
     let row = &result.rows[0];
     assert_eq!(row.full_score_rate_by_round, [1.0; 3], "{row:?}");
     assert_eq!((row.collisions, row.given_up), (0, 0), "{row:?}");
