@@ -17,12 +17,13 @@ use serde::Serialize;
 use super::drive::{StopCollector, drive_and_collect};
 use super::robot::{RobotCalibrateError, RobotDrive, drive_on_robot, open_recorder};
 use super::{CalibrateError, lidar_beliefs};
-use crate::apps::scripts::odometry_drive;
+use crate::apps::scripts::{StopWindow, odometry_drive};
 use crate::apps::tracked_script::TrackedScript;
 use crate::devices::Shared;
 use crate::recording::{RecordedInputs, Recording, RecordingError};
 use ratf_core::calibration::{CalibrationError, Stop};
 use ratf_core::config::{Config, WorldProfile};
+use ratf_core::field::geometry::Pose2;
 use ratf_core::identification::odometry_fit::{
     self, Leg, OdometryFit, OdometryFitError, TURN_MAX_SHIFT_M, TURN_MIN_RAD,
 };
@@ -289,6 +290,16 @@ pub fn run_in_sim(
     drive_in_sim(config, &robot, record)
 }
 
+/// The odometry drive as a robot that believes `robot` drives it: closed loop on its
+/// estimate, held against the plan of its `navigation.lag_compensation_s` earlier
+/// ([`TrackedScript`]); with its start pose and stop windows.
+fn tracked_odometry_drive(robot: &Config) -> (TrackedScript, Pose2, Vec<StopWindow>) {
+    let (script, windows) = odometry_drive();
+    let start = script.start;
+    let tracked = TrackedScript::new(script, robot.navigation.lag_compensation_s);
+    (tracked, start, windows)
+}
+
 /// Drive the odometry drive in the world of `config` by a robot that believes `robot` (its
 /// lidar calibrated) and fit; compare with the truth. With `record`, as [`run_in_sim`].
 pub fn drive_in_sim(
@@ -296,10 +307,8 @@ pub fn drive_in_sim(
     robot: &Config,
     record: Option<&Path>,
 ) -> Result<SimOdometry, OdometryCalibrateError> {
-    let (script, windows) = odometry_drive();
+    let (script, start, windows) = tracked_odometry_drive(robot);
     let windows_len = windows.len();
-    let script = TrackedScript::new(script, robot.navigation.lag_compensation_s);
-    let start = script.script().start;
     let scenario = Scenario {
         start_pose: start,
         ..Scenario::new(config)
@@ -396,9 +405,7 @@ pub fn run_on_robot(
     recording: &Path,
     shared: &Shared,
 ) -> Result<RobotOdometry, OdometryCalibrateError> {
-    let (script, windows) = odometry_drive();
-    let script = TrackedScript::new(script, config.navigation.lag_compensation_s);
-    let start = script.script().start;
+    let (script, start, windows) = tracked_odometry_drive(config);
     let RobotDrive { stops, recording } = drive_on_robot(
         config,
         (&script, start, windows),

@@ -268,14 +268,14 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
             run.collisions
         );
     })?;
-    let worst =
-        |f: &dyn Fn(&SimOdometry) -> f64| runs.iter().map(|r| f(r).abs()).fold(0.0, f64::max);
-    let mean = |f: &dyn Fn(&SimOdometry) -> f64| {
-        runs.iter().map(|r| f(r).abs()).sum::<f64>() / runs.len().max(1) as f64
-    };
     if runs.is_empty() {
         anyhow::bail!("every seed's calibration was refused ({refused:?})");
     }
+    let worst =
+        |f: &dyn Fn(&SimOdometry) -> f64| runs.iter().map(|r| f(r).abs()).fold(0.0, f64::max);
+    let mean = |f: &dyn Fn(&SimOdometry) -> f64| {
+        runs.iter().map(|r| f(r).abs()).sum::<f64>() / runs.len() as f64
+    };
     std::println!(
         "{} seeds ({} world{}): |wheel radius error| mean {:.3} %, worst {:.3} % (before: \
          worst {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %); \
