@@ -283,21 +283,28 @@ fn scans_along_straight(
     loc.pose().position().distance(pose_at(at_us).position())
 }
 
+/// The straight drive's pose at `t_us`, µs.
+fn straight_at(t_us: f64) -> Pose2 {
+    straight(t_us * 1e-6)
+}
+
+/// [`straight_at`] 19 mm short along its heading: the body after a slip in pure translation.
+fn slipped_19_mm(t_us: f64) -> Pose2 {
+    let p = straight_at(t_us);
+    Pose2::new(
+        p.x - 0.019 * p.yaw_rad.cos(),
+        p.y - 0.019 * p.yaw_rad.sin(),
+        p.yaw_rad,
+    )
+}
+
 /// A slip in pure translation (the body 19 mm short of what the wheels say, the gyro in
 /// agreement): each beacon alone is within its noise, the four agree on one shift the
 /// prediction's covariance rules out. The joint test takes it in one scan; without it the
 /// estimate stays ahead of the truth.
 #[test]
 fn a_translation_slip_the_beacons_agree_on_is_taken_in_one_scan() {
-    let truth = |t_us: f64| straight(t_us * 1e-6);
-    let slipped = |t_us: f64| {
-        let p = straight(t_us * 1e-6);
-        Pose2::new(
-            p.x - 0.019 * p.yaw_rad.cos(),
-            p.y - 0.019 * p.yaw_rad.sin(),
-            p.yaw_rad,
-        )
-    };
+    let (truth, slipped) = (straight_at, slipped_19_mm);
     let after_slip = |joint_nis: f64| {
         let config = LocalisationConfig {
             inflate_above_joint_nis: joint_nis,
@@ -316,6 +323,50 @@ fn a_translation_slip_the_beacons_agree_on_is_taken_in_one_scan() {
     assert_eq!((inflated, not_inflated), (1, 0));
     assert!(with_joint < 0.004, "with the joint test: {with_joint} m");
     assert!(median_only > 0.006, "median test alone: {median_only} m");
+}
+
+/// The same slip, the joint test off: the filter takes only part of it, and the scan's
+/// report says how much it left (the beacons' pose less the estimate, towards the truth),
+/// where the mission's drops read it (`ratf_core::mission::BeaconFix`). On the way there,
+/// with no slip, it is small.
+#[test]
+fn a_scan_reports_what_the_beacons_agree_on_and_the_filter_left_of_a_slip() {
+    let (truth, slipped) = (straight_at, slipped_19_mm);
+    let config = LocalisationConfig {
+        inflate_above_joint_nis: 1000.0,
+        ..LocalisationConfig::default()
+    };
+    let mut loc = localiser_with(&config, straight(0.0));
+    let mut rng = SimRng::new(8);
+    scans_along_straight(&mut loc, &truth, 0..2, &mut rng);
+    let mut largest_settled = 0.0_f64;
+    for k in 2..14 {
+        scans_along_straight(&mut loc, &truth, k..k + 1, &mut rng);
+        let left = loc
+            .health()
+            .last_scan
+            .beacons_minus_estimate_m
+            .expect("four beacons");
+        largest_settled = largest_settled.max(left.norm());
+    }
+    assert!(
+        largest_settled < 0.003,
+        "{largest_settled} m left without a slip"
+    );
+    let error = scans_along_straight(&mut loc, &slipped, 14..15, &mut rng);
+    let left = loc
+        .health()
+        .last_scan
+        .beacons_minus_estimate_m
+        .expect("four beacons");
+    let ahead = truth(0.0).heading();
+    assert!(error > 0.006, "the filter took the slip: {error} m left");
+    // Towards the truth (behind the estimate), by about what is left.
+    assert!(left.dot(ahead) < -0.006, "{left:?}");
+    assert!(
+        (left.norm() - error).abs() < 0.004,
+        "{left:?} against {error} m"
+    );
 }
 
 #[test]

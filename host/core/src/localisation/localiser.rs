@@ -370,18 +370,21 @@ impl Localiser {
     /// of x, y, θ to its reset variance. Two tests, the larger scale kept: the median NIS
     /// of the beacons one by one (`inflate_above_median_nis`, brought to the χ²(2) median),
     /// and the NIS of the correction they agree on (`inflate_above_joint_nis`, brought to
-    /// the χ²(3) median) when their residuals about it are within the χ² 99 % quantile, so
-    /// that a ghost beside one beacon triggers neither.
-    fn inflate_if_inconsistent(&mut self, state: &mut EkfState, candidates: &[Vec<Observation>]) {
+    /// the χ²(3) median) when their residuals about it are within the χ² 99 % quantile
+    /// (`agreed`: that correction, when they are), so that a ghost beside one beacon
+    /// triggers neither.
+    fn inflate_if_inconsistent(
+        &mut self,
+        state: &mut EkfState,
+        candidates: &[Vec<Observation>],
+        agreed: Option<JointCorrection>,
+    ) {
         const CHI2_2_MEDIAN: f64 = 1.386;
         const CHI2_3_MEDIAN: f64 = 2.366;
         let median_triggered = self
             .median_nis(state, 1.0, candidates)
             .is_some_and(|median| median > self.config.inflate_above_median_nis);
-        let joint = self
-            .joint_correction(state, candidates)
-            .filter(|j| j.residual_chi2 <= chi2_99(j.residual_dof))
-            .filter(|j| j.nis(state, 1.0) > self.config.inflate_above_joint_nis);
+        let joint = agreed.filter(|j| j.nis(state, 1.0) > self.config.inflate_above_joint_nis);
         if !median_triggered && joint.is_none() {
             return;
         }
@@ -608,7 +611,11 @@ impl PoseEstimator for Localiser {
         } else {
             candidates
         };
-        self.inflate_if_inconsistent(&mut state, &candidates);
+        let prediction = state.pose();
+        let agreed = self
+            .joint_correction(&state, &candidates)
+            .filter(|j| j.residual_chi2 <= chi2_99(j.residual_dof));
+        self.inflate_if_inconsistent(&mut state, &candidates, agreed);
         // The nearest beacons first (their predicted positions are the best known when the
         // heading is uncertain): each update narrows the choice among the next one's
         // candidates.
@@ -623,6 +630,13 @@ impl PoseEstimator for Localiser {
         for i in order {
             self.offer(&mut state, &candidates[i], &beacons[i], &mut report);
         }
+        report.beacons_minus_estimate_m = agreed.map(|j| {
+            let posterior = state.pose();
+            Vec2::new(
+                prediction.x + j.correction[0] - posterior.x,
+                prediction.y + j.correction[1] - posterior.y,
+            )
+        });
         if report.beacons_used as usize >= MIN_FIX_BEACONS {
             self.health.relocking = false;
         }

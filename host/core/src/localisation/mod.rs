@@ -114,7 +114,7 @@ use nalgebra::Matrix3;
 
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
-use crate::field::geometry::Pose2;
+use crate::field::geometry::{Pose2, Vec2};
 use crate::odometry::BodyIncrement;
 
 pub use localiser::{COAST_S, Localiser, ODOMETRY_GAP_US};
@@ -157,6 +157,14 @@ pub struct ScanReport {
     pub beacons_unseen: u32,
     /// Per beacon, the NIS of the observation offered (applied or gated).
     pub nis: [Option<f64>; 4],
+    /// Where the scan's beacons, taken together, put the robot, less where the filter has
+    /// it after the scan, both at `reference_time_us` (world frame, m): what the filter left
+    /// of the correction three or more beacons agree on (their residuals about it within the
+    /// χ² 99 % quantile). Near zero when the filter took the scan at its word. After a slip
+    /// its prediction did not model (the floor passing on only part of a straight motion),
+    /// the filter, sure of its pose, takes a quarter to a half of it per scan, and the rest
+    /// shows here. `None` without three beacons that agree (the original filter: always).
+    pub beacons_minus_estimate_m: Option<Vec2>,
 }
 
 /// Health of an estimator, for the HMI and the logs.
