@@ -137,7 +137,7 @@ impl Tap for TimeSplitTap {
         };
         let class = match activity {
             Activity::Planning | Activity::AwaitingServer | Activity::Finished => Class::Waiting,
-            Activity::Gripping | Activity::Releasing => Class::Settling,
+            Activity::Gripping | Activity::ConfirmingDrop | Activity::Releasing => Class::Settling,
             Activity::BackingOut | Activity::Regripping => Class::Docking,
             Activity::ToPick { slot } | Activity::ToDrop { slot } => {
                 if self.near_goal(slot, step) {

@@ -177,6 +177,14 @@ impl MissionConfig {
             SETTLE,
         );
         c.within(
+            "drop_fix_wait_s",
+            self.drop_fix_wait_s,
+            0.0,
+            10.0,
+            "s",
+            "the X4 scans at 7 Hz: a few tenths of a second hold several scans",
+        );
+        c.within(
             "back_out_m",
             self.back_out_m,
             0.0,

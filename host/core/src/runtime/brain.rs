@@ -14,7 +14,9 @@ use crate::control::route_time::RouteTimes;
 use crate::field::Field;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
-use crate::mission::{Activity, HeldMagnet, Mission, MissionConfig, MissionEvent, search_floor};
+use crate::mission::{
+    Activity, BeaconFix, HeldMagnet, Mission, MissionConfig, MissionEvent, search_floor,
+};
 use crate::planning::tasks::{
     self, BranchAndBound, Location, Model, Original, Rules, State, StraightLineTimes, TaskError,
     Timing, TravelTimes, check_magnet_faces,
@@ -161,6 +163,14 @@ impl Brain {
     /// The task planner behind the mission, once running.
     pub fn actions(&self) -> Option<&TaskActions> {
         self.mission.as_ref().map(|m| m.actions())
+    }
+
+    /// The localiser's latest word on the pose from the beacons, for the mission's drops
+    /// ([`Mission::observe_fix`]).
+    pub fn observe_fix(&mut self, fix: BeaconFix) {
+        if let Some(mission) = self.mission.as_mut() {
+            mission.observe_fix(fix);
+        }
     }
 
     /// One host tick at `now_us` with the pose estimate and the switch; `events` gets what

@@ -6,6 +6,7 @@ use crate::config::Config;
 use crate::field::geometry::Pose2;
 use crate::kinematics::BodyTwist;
 use crate::localisation::Health;
+use crate::mission::BeaconFix;
 use crate::planning::tasks::TaskError;
 use crate::robot::{EstimatorKind, InputCounts, Robot};
 
@@ -182,6 +183,13 @@ impl Core {
         let mega_heard = counts.mega_resets + counts.wheel_batches > 0;
         // A held robot's mission stands with its clock stopped (`mission`, "Held").
         let hold = self.silence.check(now_us, &mut outputs.events);
+        let scan = self.robot.localisation_health().last_scan;
+        if let Some(offset_m) = scan.beacons_minus_estimate_m {
+            self.brain.observe_fix(BeaconFix {
+                reference_time_us: scan.reference_time_us,
+                offset_m,
+            });
+        }
         let tick = self.brain.tick(
             now_us,
             self.robot.pose(),
