@@ -73,9 +73,10 @@ mod stall;
 
 use std::collections::BTreeMap;
 
+use crate::config::NavigationConfig;
 use crate::control::creep::{Creep, CreepLimits};
 use crate::control::follower::Status;
-use crate::control::route::{DROP_SHORT_M, SLOT_EXIT_M};
+use crate::control::route::{SLOT_EXIT_M, drop_pose};
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
@@ -116,10 +117,6 @@ pub const MAX_DROP_CREEPS: u32 = 2;
 /// the drop, and 40 mm short of it a part let go falls outside its slot anyway
 /// ([`LET_GO_SHORT_OF_DROP_M`] is 30 mm short of the pick pose).
 const MAX_DROP_CREEP_M: f64 = 0.04;
-
-/// Speed of that creep, m/s. 0.035: the docking creep's (`navigation.dock_creep_speed_m_s`),
-/// so the robot stops within about 5 mm of where it is told.
-const DROP_CREEP_M_S: f64 = 0.035;
 
 /// One pick-and-place: take the part standing at `pick`, put it at `drop` (slot waypoints).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -312,6 +309,12 @@ pub struct MissionConfig {
     /// original-system.md §6.4).
     #[serde(skip)]
     pub return_given_up_part: bool,
+    /// Speed of the creep on to a drop the beacons put the robot short of
+    /// ([`Self::drop_fix_wait_s`]), m/s: the docking creep's, so the robot stops within
+    /// about 5 mm of where it is told. Not a key: it follows `[navigation]
+    /// dock_creep_speed_m_s`.
+    #[serde(skip)]
+    pub drop_creep_speed_m_s: f64,
 }
 
 impl Default for MissionConfig {
@@ -338,6 +341,7 @@ impl Default for MissionConfig {
             confirm_release: true,
             watch_carried_part: true,
             return_given_up_part: true,
+            drop_creep_speed_m_s: NavigationConfig::default().dock_creep_speed_m_s,
         }
     }
 }
@@ -1155,7 +1159,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             && short_m <= MAX_DROP_CREEP_M
         {
             let limits = CreepLimits {
-                speed_m_s: DROP_CREEP_M_S,
+                speed_m_s: self.config.drop_creep_speed_m_s,
                 limit_m: short_m,
             };
             let creep = Creep::new(pose, limits);
@@ -1173,11 +1177,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// How far short of the drop at `slot` the beacons put a robot whose estimate is `pose`,
     /// `offset_m` from where they have it, m along its heading (negative: past it). The
-    /// drop is [`DROP_SHORT_M`] short of the slot's pick pose, where the navigator takes a
-    /// carried part; unknown slots count as reached.
+    /// drop is the navigator's ([`drop_pose`] of the slot's pick pose); unknown slots count
+    /// as reached.
     fn short_of_drop(&self, slot: WaypointId, pose: Pose2, offset_m: Vec2) -> f64 {
-        self.slot_poses.get(&slot).map_or(0.0, |pick| {
-            let drop = pick.position() - pick.heading() * DROP_SHORT_M;
+        self.slot_poses.get(&slot).map_or(0.0, |&pick| {
+            let drop = drop_pose(pick).position();
             (drop - (pose.position() + offset_m)).dot(pose.heading())
         })
     }
@@ -1973,7 +1977,7 @@ mod tests {
             pose = moved(pose, out.twist);
             if m.activity() == Activity::ConfirmingDrop {
                 // The drop is `DROP_SHORT_M` short of the slot's pick pose, along +x here.
-                let pick = Pose2::new(pose.x + DROP_SHORT_M, pose.y, 0.0);
+                let pick = Pose2::new(pose.x + crate::control::route::DROP_SHORT_M, pose.y, 0.0);
                 m.slot_poses.insert(A.drop, pick);
                 return (m, k * 20_000, Pose2::new(pose.x, pose.y, 0.0));
             }
@@ -2031,14 +2035,17 @@ mod tests {
             if out.twist == BodyTwist::default() && pose != start {
                 break;
             }
-            assert_eq!(out.twist, BodyTwist::new(DROP_CREEP_M_S, 0.0, 0.0));
+            assert_eq!(
+                out.twist,
+                BodyTwist::new(m.config.drop_creep_speed_m_s, 0.0, 0.0)
+            );
             pose = moved(pose, out.twist);
             now += 20_000;
         }
         // Crept on by what the scan put it short (the creep stops in the tick past it).
         let crept = pose.x - start.x;
         assert!(
-            (0.012..0.012 + DROP_CREEP_M_S * 0.02 + 1e-9).contains(&crept),
+            (0.012..0.012 + m.config.drop_creep_speed_m_s * 0.02 + 1e-9).contains(&crept),
             "{crept}"
         );
         // It waits for a scan taken after the creep: the earlier one does not count again.

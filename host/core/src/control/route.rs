@@ -728,10 +728,16 @@ impl LegPlanner {
     }
 }
 
-/// `slot` as a drop aims at it: its pick pose moved [`DROP_SHORT_M`] out of the slot.
+/// Where our robot lets a part go at a slot whose pick pose is `pick`: [`DROP_SHORT_M`]
+/// out of the slot along the pick pose's heading.
+pub fn drop_pose(pick: Pose2) -> Pose2 {
+    pick.compose(Pose2::new(-DROP_SHORT_M, 0.0, 0.0))
+}
+
+/// `slot` as a drop aims at it: its pick pose moved to [`drop_pose`].
 fn drop_slot(slot: &Slot) -> Slot {
     let mut short = *slot;
-    short.pick_pose = slot.pick_pose.compose(Pose2::new(-DROP_SHORT_M, 0.0, 0.0));
+    short.pick_pose = drop_pose(slot.pick_pose);
     short
 }
 

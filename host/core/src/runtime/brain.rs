@@ -110,6 +110,7 @@ impl Brain {
                     exit_on_route_after_pick: true,
                     confirm_release: true,
                     watch_carried_part: true,
+                    drop_creep_speed_m_s: config.navigation.dock_creep_speed_m_s,
                     ..config.mission
                 },
                 Policy::Original => config.mission.original(),
