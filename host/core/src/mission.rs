@@ -34,8 +34,8 @@
 //! touched it (15 of the wheel slip fault's 17 collisions on its tuning seeds 61–85). With
 //! `drop_fix_wait_s` set, ours stands at the drop, magnet on, until a scan taken since the arrival shows where it
 //! is ([`Mission::observe_fix`]: the localiser's
-//! [`crate::localisation::ScanReport::beacons_minus_estimate_m`]), and creeps on by what
-//! it is short: about 0.28 s a drop, 1.1–2.4 s a round in the realistic world (README:
+//! [`crate::localisation::ScanReport::beacons_fix`]), and creeps on by what it is short
+//! where the scan is sure of it ([`DROP_FIX_SIGNIFICANCE`]): about 0.28 s a drop, 1.1–2.4 s a round in the realistic world (README:
 //! Faults). Off by default (`drop_fix_wait_s`, whose documentation says why).
 //!
 //! **Held.** While the core holds the robot still (a device silent or its port lost,
@@ -80,6 +80,7 @@ use crate::control::route::{SLOT_EXIT_M, drop_pose};
 use crate::field::geometry::{Pose2, Vec2, wrap_angle};
 use crate::field::waypoints::WaypointId;
 use crate::kinematics::BodyTwist;
+use crate::localisation::AgreedFix;
 use crate::planning::shortcuts::FreeSpace;
 use jam::JamWatch;
 use search::{Search, Step, Trail};
@@ -88,14 +89,22 @@ use stall::StallWatch;
 pub use search::{LOOK_CLEARANCE_M, MAX_LOOKS, search_floor};
 
 /// A scan's word on where the robot stands, from the localiser
-/// ([`crate::localisation::ScanReport::beacons_minus_estimate_m`]).
+/// ([`crate::localisation::ScanReport::beacons_fix`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BeaconFix {
     /// The scan's reference time (the middle of its sweep), µs.
     pub reference_time_us: u64,
-    /// Where the scan's beacons put the robot, less the pose estimate, world frame, m.
-    pub offset_m: Vec2,
+    /// Where the scan's beacons put the robot against the pose estimate, and how sure they
+    /// are of it.
+    pub agreed: AgreedFix,
 }
+
+/// A scan moves a drop only where it puts the robot off its estimate, along the heading, by
+/// more than this many of its own standard deviations there
+/// ([`AgreedFix::std_along_m`]). 2.0: a slip's 8–20 mm stands out of a four-beacon fix's
+/// few millimetres, while one noisy scan that put the robot 8 mm back at machine B's input
+/// (ideal world, round 2, seed 34), followed, crept it 12 mm into the divider.
+pub const DROP_FIX_SIGNIFICANCE: f64 = 2.0;
 
 /// How far short of its drop the beacons may put a robot standing there before it creeps
 /// on, m ([`MissionConfig::drop_fix_wait_s`]). 0.005: a robot that arrived by its
@@ -1119,7 +1128,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
 
     /// Standing (or creeping) at the drop of `action`, arrived at `since_us`
     /// ([`MissionConfig::drop_fix_wait_s`]): let go once a scan taken since puts the robot
-    /// within [`DROP_SHORT_TOLERANCE_M`] of the drop, else creep on by what it puts it short,
+    /// within [`DROP_SHORT_TOLERANCE_M`] of the drop (or differs from the estimate by no more
+    /// than its noise, [`DROP_FIX_SIGNIFICANCE`]), else creep on by what it puts it short,
     /// up to [`MAX_DROP_CREEP_M`] (more is a scan gone wrong, not a slip) and
     /// [`MAX_DROP_CREEPS`] times; let go where it stands if no scan comes in time.
     fn confirm_drop(
@@ -1153,7 +1163,15 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             }
             return BodyTwist::default();
         };
-        let short_m = self.short_of_drop(action.drop, pose, fix.offset_m);
+        let heading = pose.heading();
+        let offset_m = fix.agreed.minus_estimate_m;
+        let significant =
+            offset_m.dot(heading).abs() > DROP_FIX_SIGNIFICANCE * fix.agreed.std_along_m(heading);
+        let short_m = if significant {
+            self.short_of_drop(action.drop, pose, offset_m)
+        } else {
+            self.short_of_drop(action.drop, pose, Vec2::ZERO)
+        };
         if creeps < MAX_DROP_CREEPS
             && short_m > DROP_SHORT_TOLERANCE_M
             && short_m <= MAX_DROP_CREEP_M
@@ -1985,23 +2003,35 @@ mod tests {
         panic!("never stood at the drop");
     }
 
+    /// A scan at `reference_time_us` whose beacons put the robot `offset_m` from its
+    /// estimate, sure of it within 2 mm each way (four beacons in view).
+    fn beacon_fix(reference_time_us: u64, offset_m: Vec2) -> BeaconFix {
+        noisy_beacon_fix(reference_time_us, offset_m, 0.002)
+    }
+
+    /// As [`beacon_fix`], with a standard deviation of `std_m` each way.
+    fn noisy_beacon_fix(reference_time_us: u64, offset_m: Vec2, std_m: f64) -> BeaconFix {
+        let variance = std_m * std_m;
+        BeaconFix {
+            reference_time_us,
+            agreed: AgreedFix {
+                minus_estimate_m: offset_m,
+                covariance_m2: [[variance, 0.0], [0.0, variance]],
+            },
+        }
+    }
+
     #[test]
     fn a_drop_is_let_go_only_once_a_scan_taken_after_the_arrival_confirms_it() {
         let (mut m, arrived_us, pose) = standing_at_the_drop();
         // A scan from before the arrival says nothing of where the robot stopped.
-        m.observe_fix(BeaconFix {
-            reference_time_us: arrived_us - 1,
-            offset_m: Vec2::ZERO,
-        });
+        m.observe_fix(beacon_fix(arrived_us - 1, Vec2::ZERO));
         for k in 1..=10u64 {
             let out = m.tick(arrived_us + k * 20_000, pose, true);
             assert_eq!(out.twist, BodyTwist::default());
             assert!(out.solenoid_on, "let go before a scan confirmed the drop");
         }
-        let fix = BeaconFix {
-            reference_time_us: arrived_us + 150_000,
-            offset_m: Vec2::new(0.002, 0.001),
-        };
+        let fix = beacon_fix(arrived_us + 150_000, Vec2::new(0.002, 0.001));
         lets_go_on(&mut m, fix, arrived_us + 220_000, pose);
     }
 
@@ -2023,10 +2053,7 @@ mod tests {
     fn a_scan_that_puts_the_robot_short_of_its_drop_has_it_creep_on_before_letting_go() {
         let (mut m, arrived_us, start) = standing_at_the_drop();
         // The beacons put the robot 12 mm behind where its estimate has it: a slip.
-        m.observe_fix(BeaconFix {
-            reference_time_us: arrived_us + 100_000,
-            offset_m: Vec2::new(-0.012, 0.0),
-        });
+        m.observe_fix(beacon_fix(arrived_us + 100_000, Vec2::new(-0.012, 0.0)));
         let mut pose = start;
         let mut now = arrived_us + 160_000;
         for _ in 0..100 {
@@ -2053,20 +2080,27 @@ mod tests {
             now += 20_000;
             assert!(m.tick(now, pose, true).solenoid_on);
         }
-        let fix = BeaconFix {
-            reference_time_us: now,
-            offset_m: Vec2::new(-0.012 + crept, 0.0),
-        };
+        let fix = beacon_fix(now, Vec2::new(-0.012 + crept, 0.0));
         lets_go_on(&mut m, fix, now + 20_000, pose);
     }
 
     #[test]
     fn a_scan_that_puts_the_robot_far_short_of_its_drop_is_not_followed() {
         let (mut m, arrived_us, pose) = standing_at_the_drop();
-        let fix = BeaconFix {
-            reference_time_us: arrived_us + 100_000,
-            offset_m: Vec2::new(-(MAX_DROP_CREEP_M + 0.005), 0.0),
-        };
+        let fix = beacon_fix(
+            arrived_us + 100_000,
+            Vec2::new(-(MAX_DROP_CREEP_M + 0.005), 0.0),
+        );
+        lets_go_on(&mut m, fix, arrived_us + 160_000, pose);
+    }
+
+    #[test]
+    fn a_scan_unsure_of_how_short_the_robot_stands_is_not_followed() {
+        let (mut m, arrived_us, pose) = standing_at_the_drop();
+        // 12 mm short, as in the creep above, but from a scan whose noise along the heading
+        // (beacons far or few) could make that much of nothing.
+        let std_m = 0.012 / DROP_FIX_SIGNIFICANCE + 0.001;
+        let fix = noisy_beacon_fix(arrived_us + 100_000, Vec2::new(-0.012, 0.0), std_m);
         lets_go_on(&mut m, fix, arrived_us + 160_000, pose);
     }
 

@@ -11,6 +11,7 @@ use ratf_core::field::geometry::{Pose2, Vec2};
 use ratf_core::localisation::OriginalFilter;
 use ratf_core::localisation::localiser::*;
 use ratf_core::localisation::{Health, PoseEstimator};
+use ratf_core::mission::DROP_FIX_SIGNIFICANCE;
 use ratf_core::odometry::BodyIncrement;
 use ratf_core::rng::SimRng;
 use ratf_sim::testkit::{
@@ -345,8 +346,9 @@ fn a_scan_reports_what_the_beacons_agree_on_and_the_filter_left_of_a_slip() {
         let left = loc
             .health()
             .last_scan
-            .beacons_minus_estimate_m
-            .expect("four beacons");
+            .beacons_fix
+            .expect("four beacons")
+            .minus_estimate_m;
         largest_settled = largest_settled.max(left.norm());
     }
     assert!(
@@ -354,11 +356,8 @@ fn a_scan_reports_what_the_beacons_agree_on_and_the_filter_left_of_a_slip() {
         "{largest_settled} m left without a slip"
     );
     let error = scans_along_straight(&mut loc, &slipped, 14..15, &mut rng);
-    let left = loc
-        .health()
-        .last_scan
-        .beacons_minus_estimate_m
-        .expect("four beacons");
+    let fix = loc.health().last_scan.beacons_fix.expect("four beacons");
+    let left = fix.minus_estimate_m;
     let ahead = truth(0.0).heading();
     assert!(error > 0.006, "the filter took the slip: {error} m left");
     // Towards the truth (behind the estimate), by about what is left.
@@ -366,6 +365,12 @@ fn a_scan_reports_what_the_beacons_agree_on_and_the_filter_left_of_a_slip() {
     assert!(
         (left.norm() - error).abs() < 0.004,
         "{left:?} against {error} m"
+    );
+    // And beyond the beacons' own noise, so a drop follows it.
+    let std_m = fix.std_along_m(ahead);
+    assert!(
+        -left.dot(ahead) > DROP_FIX_SIGNIFICANCE * std_m,
+        "{left:?} within {DROP_FIX_SIGNIFICANCE} × {std_m} m"
     );
 }
 

@@ -10,7 +10,7 @@ use super::ekf::{
 use super::gyro::GyroIntegrator;
 use super::history::{History, Step};
 use super::relock::{MIN_FIX_BEACONS, unique_fix};
-use super::{Health, PoseEstimator, ScanReport, chi2_99};
+use super::{AgreedFix, Health, PoseEstimator, ScanReport, chi2_99};
 use crate::config::{LocalisationConfig, RobotConfig};
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
@@ -630,12 +630,18 @@ impl PoseEstimator for Localiser {
         for i in order {
             self.offer(&mut state, &candidates[i], &beacons[i], &mut report);
         }
-        report.beacons_minus_estimate_m = agreed.map(|j| {
+        report.beacons_fix = agreed.map(|j| {
             let posterior = state.pose();
-            Vec2::new(
-                prediction.x + j.correction[0] - posterior.x,
-                prediction.y + j.correction[1] - posterior.y,
-            )
+            AgreedFix {
+                minus_estimate_m: Vec2::new(
+                    prediction.x + j.correction[0] - posterior.x,
+                    prediction.y + j.correction[1] - posterior.y,
+                ),
+                covariance_m2: [
+                    [j.covariance[(0, 0)], j.covariance[(0, 1)]],
+                    [j.covariance[(1, 0)], j.covariance[(1, 1)]],
+                ],
+            }
         });
         if report.beacons_used as usize >= MIN_FIX_BEACONS {
             self.health.relocking = false;

@@ -157,14 +157,40 @@ pub struct ScanReport {
     pub beacons_unseen: u32,
     /// Per beacon, the NIS of the observation offered (applied or gated).
     pub nis: [Option<f64>; 4],
-    /// Where the scan's beacons, taken together, put the robot, less where the filter has
-    /// it after the scan, both at `reference_time_us` (world frame, m): what the filter left
-    /// of the correction three or more beacons agree on (their residuals about it within the
-    /// χ² 99 % quantile). Near zero when the filter took the scan at its word. After a slip
-    /// its prediction did not model (the floor passing on only part of a straight motion),
-    /// the filter, sure of its pose, takes a quarter to a half of it per scan, and the rest
-    /// shows here. `None` without three beacons that agree (the original filter: always).
-    pub beacons_minus_estimate_m: Option<Vec2>,
+    /// Where the scan's beacons, taken together, put the robot, against where the filter has
+    /// it after the scan, both at `reference_time_us`: the correction three or more beacons
+    /// agree on (their residuals about it within the χ² 99 % quantile), what the filter left
+    /// of it, and how sure the beacons are. Near zero when the filter took the scan at its
+    /// word. After a slip its prediction did not model (the floor passing on only part of a
+    /// straight motion), the filter, sure of its pose, takes a quarter to a half of it per
+    /// scan, and the rest shows here. `None` without three beacons that agree (the original
+    /// filter: always).
+    pub beacons_fix: Option<AgreedFix>,
+}
+
+/// Where three or more agreeing beacons of one scan put the robot, against the filter
+/// ([`ScanReport::beacons_fix`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AgreedFix {
+    /// Where the beacons put the robot, less where the filter has it after the scan, world
+    /// frame, m.
+    pub minus_estimate_m: Vec2,
+    /// The covariance of where the beacons put the robot (its x, y block), from their own
+    /// observations' covariances, m²: what one scan's noise alone could make of
+    /// `minus_estimate_m` when the filter is right.
+    pub covariance_m2: [[f64; 2]; 2],
+}
+
+impl AgreedFix {
+    /// The standard deviation of where the beacons put the robot along the unit vector
+    /// `direction` (world frame), m.
+    pub fn std_along_m(&self, direction: Vec2) -> f64 {
+        let [[xx, xy], [yx, yy]] = self.covariance_m2;
+        let (x, y) = (direction.x, direction.y);
+        (x * x * xx + x * y * (xy + yx) + y * y * yy)
+            .max(0.0)
+            .sqrt()
+    }
 }
 
 /// Health of an estimator, for the HMI and the logs.

@@ -184,10 +184,10 @@ impl Core {
         // A held robot's mission stands with its clock stopped (`mission`, "Held").
         let hold = self.silence.check(now_us, &mut outputs.events);
         let scan = self.robot.localisation_health().last_scan;
-        if let Some(offset_m) = scan.beacons_minus_estimate_m {
+        if let Some(agreed) = scan.beacons_fix {
             self.brain.observe_fix(BeaconFix {
                 reference_time_us: scan.reference_time_us,
-                offset_m,
+                agreed,
             });
         }
         let tick = self.brain.tick(
