@@ -179,6 +179,18 @@ fn the_odometry_drive_on_the_served_devices_fits_the_true_wheels_and_its_recordi
         "strafe factor {strafe:.4}, truth {:.4}\n{figures}",
         truth.lateral_factor
     );
+    // The lidar's place on the robot, from the turns in place: the world drew it 3.5 mm
+    // from the file's (the simulated drive at this seed leaves 0.4 mm).
+    let [dx, dy] = truth.lidar_position_error_m;
+    let lidar_before_mm = dx.hypot(dy) * 1e3;
+    let lidar_error_mm = (key("lidar_x_m") - (config.robot.lidar_x_m + dx))
+        .hypot(key("lidar_y_m") - (config.robot.lidar_y_m + dy))
+        * 1e3;
+    let lidar_tolerance_mm = 1.5;
+    assert!(
+        lidar_before_mm > 2.0 * lidar_tolerance_mm && lidar_error_mm < lidar_tolerance_mm,
+        "lidar {lidar_error_mm:.2} mm off (before {lidar_before_mm:.2} mm)\n{figures}"
+    );
     // The team's own keys are kept, and the file is still a robot's file.
     assert_eq!(file["link"]["imu"].as_str(), Some("none"), "{text}");
     assert!(file["lidar"].get("range_scale").is_some(), "{text}");

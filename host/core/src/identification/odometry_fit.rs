@@ -10,6 +10,15 @@
 //! `a/b` times the odometry's angle; each factor is the least-squares ratio over the legs.
 //! Why: the mean wheel radius scales every distance the odometry reports and lx + ly every
 //! angle (real-world-errors.md: −0.3 % and +1.1 % on the 5dpo robot).
+//!
+//! The turns in place also place the lidar on the robot. A fix made with the lidar believed
+//! at `m̂` (robot frame) when it sits at `m = m̂ + δ` is the robot's pose moved by `δ` in its
+//! own frame, so across a turn by `φ` about the robot's centre the fixes move by
+//! `(R(φ) − I)·δ` (in the first stop's frame) beyond what the wheels say: `δ` is the
+//! least-squares solution over the turns. No single scan can see it (every fix moves with
+//! it), nor can a drive that keeps its heading; a ruler puts it within a few millimetres
+//! (real-world-errors.md: the mount N(0, 2 mm) per axis, harsh 5 mm), and a fix off by that
+//! much moves every dock by as much, turning with the robot.
 
 use crate::calibration::Stop;
 use crate::config::Config;
@@ -146,6 +155,12 @@ pub struct OdometryFit {
     /// The strafe factor to write (`robot.strafe_factor`): the believed one times the
     /// correction.
     pub strafe_factor: f64,
+    /// Where the turns in place put the lidar less where the configuration has it, robot
+    /// frame, m (module documentation).
+    pub lidar_shift_m: Vec2,
+    /// The lidar's position to write (`robot.lidar_x_m`, `robot.lidar_y_m`), robot frame,
+    /// m: the believed one moved by `lidar_shift_m`.
+    pub lidar_position_m: Vec2,
     /// Distance driven straight over the legs used, m (odometry).
     pub straight_m: f64,
     /// Angle turned in place over the legs used, rad (odometry).
@@ -179,14 +194,13 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
     let (mut straight_m, mut turned_rad) = (0.0, 0.0);
     for leg in legs {
         let (o, b) = (leg.odometry, leg.beacons);
-        let shift = o.position().norm();
         if o.yaw_rad.abs() < STRAIGHT_LEG_MAX_TURN_RAD {
             xx += o.x * o.x;
             xt += o.x * b.x;
             yy += o.y * o.y;
             yt += o.y * b.y;
             straight_m += o.x.abs();
-        } else if o.yaw_rad.abs() > TURN_MIN_RAD && shift < TURN_MAX_SHIFT_M {
+        } else if is_turn_in_place(o) {
             tt += o.yaw_rad * o.yaw_rad;
             tb += o.yaw_rad * b.yaw_rad;
             turned_rad += o.yaw_rad.abs();
@@ -206,6 +220,7 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
     };
     let turn_ratio = tb / tt;
     let lx_plus_ly_factor = radius_factor / turn_ratio;
+    let lidar_shift_m = lidar_shift_m(legs, radius_factor, strafe_correction);
     let residuals: Vec<f64> = legs
         .iter()
         .filter(|l| l.odometry.yaw_rad.abs() < STRAIGHT_LEG_MAX_TURN_RAD)
@@ -224,22 +239,54 @@ pub fn fit(legs: &[Leg], config: &Config) -> Result<OdometryFit, OdometryFitErro
         wheel_diameter_m: config.robot.wheel_diameter_m * radius_factor,
         lx_plus_ly_m: config.robot.half_wheelbase_sum_m() * lx_plus_ly_factor,
         strafe_factor: config.robot.strafe_factor * strafe_correction,
+        lidar_shift_m,
+        lidar_position_m: Vec2::new(config.robot.lidar_x_m, config.robot.lidar_y_m) + lidar_shift_m,
         straight_m,
         turned_rad,
         residual_m,
     })
 }
 
+/// The lidar's position less the believed one, robot frame, m, from the turns in place among
+/// `legs` (zero without any): the least-squares `δ` of `beacons = wheels + (R(φ) − I)·δ`
+/// (module documentation), the wheels' small shift over the turn scaled by the fitted
+/// factors, `φ` the beacons' angle.
+fn lidar_shift_m(legs: &[Leg], radius_factor: f64, strafe_correction: f64) -> Vec2 {
+    let (mut weight, mut sum) = (0.0, Vec2::ZERO);
+    for leg in legs.iter().filter(|l| is_turn_in_place(l.odometry)) {
+        let (o, b) = (leg.odometry, leg.beacons);
+        let wheels = Vec2::new(radius_factor * o.x, radius_factor * strafe_correction * o.y);
+        let r = b.position() - wheels;
+        let (c, s) = (b.yaw_rad.cos(), b.yaw_rad.sin());
+        // (R(φ) − I)ᵀ·r, and (R(φ) − I)ᵀ(R(φ) − I) = 2(1 − cos φ)·I.
+        sum += Vec2::new((c - 1.0) * r.x + s * r.y, -s * r.x + (c - 1.0) * r.y);
+        weight += 2.0 * (1.0 - c);
+    }
+    if weight > 0.0 {
+        sum * (1.0 / weight)
+    } else {
+        Vec2::ZERO
+    }
+}
+
+/// Whether a leg whose wheels moved by `odometry` is a turn in place ([`TURN_MIN_RAD`],
+/// [`TURN_MAX_SHIFT_M`]).
+pub fn is_turn_in_place(odometry: Pose2) -> bool {
+    odometry.yaw_rad.abs() > TURN_MIN_RAD && odometry.position().norm() < TURN_MAX_SHIFT_M
+}
+
 impl OdometryFit {
     /// Write the fit into `config`: the wheel diameter, both wheel distances scaled
-    /// together (their ratio is the drawing's; only their sum matters to the odometry), and
-    /// the strafe factor.
+    /// together (their ratio is the drawing's; only their sum matters to the odometry), the
+    /// strafe factor and the lidar's position.
     pub fn apply(&self, config: &mut Config) {
         let robot = &mut config.robot;
         robot.wheel_diameter_m = self.wheel_diameter_m;
         robot.front_back_wheel_distance_m *= self.lx_plus_ly_factor;
         robot.left_right_wheel_distance_m *= self.lx_plus_ly_factor;
         robot.strafe_factor = self.strafe_factor;
+        robot.lidar_x_m = self.lidar_position_m.x;
+        robot.lidar_y_m = self.lidar_position_m.y;
     }
 
     /// Set the keys [`OdometryFit::apply`] changes in `file`, a configuration file's table
@@ -253,6 +300,8 @@ impl OdometryFit {
             ("front_back_wheel_distance_m", r.front_back_wheel_distance_m),
             ("left_right_wheel_distance_m", r.left_right_wheel_distance_m),
             ("strafe_factor", r.strafe_factor),
+            ("lidar_x_m", r.lidar_x_m),
+            ("lidar_y_m", r.lidar_y_m),
         ] {
             super::set_config_key(file, "robot", key, value.into());
         }
@@ -263,6 +312,7 @@ impl OdometryFit {
 mod tests {
     use super::*;
     use crate::calibration::Sighting;
+    use std::f64::consts::FRAC_PI_2;
 
     fn leg(odo: Pose2, a: f64, strafe: f64, turn: f64) -> Leg {
         Leg {
@@ -283,6 +333,7 @@ mod tests {
             leg(Pose2::new(0.0, 0.001, -1.57), a, strafe, a / b),
         ];
         let fit = fit(&legs, &config).unwrap();
+        assert!(fit.lidar_shift_m.norm() < 1e-9, "{fit:?}");
         assert!((fit.radius_factor - a).abs() < 1e-4, "{fit:?}");
         assert!((fit.lx_plus_ly_factor - b).abs() < 1e-3, "{fit:?}");
         assert!((fit.strafe_correction - strafe).abs() < 1e-2, "{fit:?}");
@@ -312,6 +363,41 @@ mod tests {
             (twice.robot.strafe_factor - strafe).abs() < 1e-2,
             "{twice:?}"
         );
+    }
+
+    /// Turns in place about the robot's centre, seen from fixes made with the lidar believed
+    /// `shift` (robot frame) from where it sits, and straight legs: the fit finds the shift
+    /// from the turns, and writes the lidar where it sits.
+    #[test]
+    fn the_turns_in_place_place_the_lidar_on_the_robot() {
+        let config = Config::default();
+        let shift = Vec2::new(0.004, -0.006);
+        let seen_with_shift = |odometry: Pose2| {
+            // The fixes' robot poses are the true ones moved by `shift` in the robot's frame
+            // at each end: `shift⁻¹ ∘ odometry ∘ shift` between them.
+            let moved = Pose2::new(shift.x, shift.y, 0.0);
+            Leg {
+                odometry,
+                beacons: moved.inverse().compose(odometry).compose(moved),
+            }
+        };
+        let legs = [
+            seen_with_shift(Pose2::new(0.35, 0.0, 0.0)),
+            seen_with_shift(Pose2::new(-0.35, 0.0, 0.0)),
+            seen_with_shift(Pose2::new(0.002, -0.001, FRAC_PI_2)),
+            seen_with_shift(Pose2::new(-0.001, 0.002, FRAC_PI_2)),
+            seen_with_shift(Pose2::new(0.0, 0.001, -FRAC_PI_2)),
+            seen_with_shift(Pose2::new(0.001, 0.0, -FRAC_PI_2)),
+        ];
+        // The straight legs see nothing of it.
+        let straight = legs[0].beacons.position() - legs[0].odometry.position();
+        assert!(straight.norm() < 1e-12, "{straight:?}");
+        let fit = fit(&legs, &config).unwrap();
+        assert!((fit.lidar_shift_m - shift).norm() < 1e-9, "{fit:?}");
+        let mut fitted = config.clone();
+        fit.apply(&mut fitted);
+        assert!((fitted.robot.lidar_x_m - (config.robot.lidar_x_m + shift.x)).abs() < 1e-9);
+        assert!((fitted.robot.lidar_y_m - (config.robot.lidar_y_m + shift.y)).abs() < 1e-9);
     }
 
     #[test]

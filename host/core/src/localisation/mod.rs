@@ -88,8 +88,9 @@
 //! **Errors common to every scan** ([`consider`]). After calibration the beacons still
 //! stand, as a whole, a few millimetres and about a tenth of a degree off where the
 //! configuration puts them, the lidar's zero angle is off by a few hundredths of a degree,
-//! and the lidar sits a few millimetres from where the robot's file puts it (a ruler's
-//! measure, not calibrated). No scan can see that (the beacons are the only reference), and treating it as
+//! and the lidar sits up to a millimetre from where the robot's file puts it (fitted by the
+//! odometry calibration's turns in place; a few millimetres where a ruler placed it). No
+//! scan can see that (the beacons are the only reference), and treating it as
 //! per-scan noise would make the filter ever more sure of a biased pose. These are consider
 //! parameters: not estimated; each state carries the estimate's sensitivity to them, and
 //! the covariance reported ([`PoseEstimator::covariance`], [`Health`]) adds what they

@@ -1,6 +1,7 @@
 //! `ratf calibrate odometry`: the odometry drive ([`crate::apps::scripts::odometry_drive`])
-//! through the robot's runtime, each stop's pose fixed from the beacons, and the wheel radius
-//! and lx + ly fitted ([`ratf_core::identification::odometry_fit`]).
+//! through the robot's runtime, each stop's pose fixed from the beacons, and the wheel radius,
+//! lx + ly, the rollers' strafe factor and the lidar's position on the robot fitted
+//! ([`ratf_core::identification::odometry_fit`]).
 //!
 //! Three ways to the same fit: in the simulator ([`run_in_sim`]: the lidar calibrated first,
 //! the calibration drive with tape measures; the world's truth beside
@@ -23,10 +24,8 @@ use crate::devices::Shared;
 use crate::recording::{RecordedInputs, Recording, RecordingError};
 use ratf_core::calibration::{CalibrationError, Stop};
 use ratf_core::config::{Config, WorldProfile};
-use ratf_core::field::geometry::Pose2;
-use ratf_core::identification::odometry_fit::{
-    self, Leg, OdometryFit, OdometryFitError, TURN_MAX_SHIFT_M, TURN_MIN_RAD,
-};
+use ratf_core::field::geometry::{Pose2, Vec2};
+use ratf_core::identification::odometry_fit::{self, Leg, OdometryFit, OdometryFitError};
 use ratf_core::planning::tasks::TaskError;
 use ratf_core::runtime::{Core, Flow, Tap, run};
 use ratf_sim::devices::SimDevices;
@@ -93,6 +92,12 @@ pub const MAX_RADIUS_DEPARTURE: f64 = 0.05;
 /// Largest departure of the fitted lx + ly from the configured, as a fraction (real robots:
 /// about 1 %).
 pub const MAX_LX_PLUS_LY_DEPARTURE: f64 = 0.10;
+
+/// Farthest the turns in place may move the lidar from where the configuration has it, m:
+/// more is not a ruler's error (a few millimetres) but a wrong `[robot] lidar_x_m` or
+/// `lidar_y_m`, or wheels that slipped while turning. 0.025: five times the harsh world's
+/// draw of the mount, N(0, 5 mm) per axis.
+pub const MAX_LIDAR_SHIFT_M: f64 = 0.025;
 
 /// How well the drive's legs agree with the fit.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -170,6 +175,19 @@ pub enum Refusal {
         /// Fitted over configured lx + ly.
         factor: f64,
     },
+    /// The turns in place put the lidar far from where the configuration has it.
+    #[error(
+        "the turns in place put the lidar {:.0} mm from where the configuration has it (at \
+         most {:.0} mm expected): measure `[robot] lidar_x_m` and `lidar_y_m` (the lidar's \
+         centre from the wheels' centre, forward and left) again, check that no wheel slipped \
+         while turning, then drive again. Nothing was written",
+        .shift_m * 1e3,
+        MAX_LIDAR_SHIFT_M * 1e3
+    )]
+    LidarShiftImplausible {
+        /// How far the fit moves the lidar, m.
+        shift_m: f64,
+    },
 }
 
 impl Agreement {
@@ -187,6 +205,11 @@ impl Agreement {
         if (fit.lx_plus_ly_factor - 1.0).abs() > MAX_LX_PLUS_LY_DEPARTURE {
             return Err(Refusal::LxPlusLyImplausible {
                 factor: fit.lx_plus_ly_factor,
+            });
+        }
+        if fit.lidar_shift_m.norm() > MAX_LIDAR_SHIFT_M {
+            return Err(Refusal::LidarShiftImplausible {
+                shift_m: fit.lidar_shift_m.norm(),
             });
         }
         if self.straight_residual_m > MAX_STRAIGHT_RESIDUAL_M {
@@ -233,10 +256,7 @@ fn turn_residual_rad(legs: &[Leg], fit: &OdometryFit) -> f64 {
     let turn_ratio = fit.radius_factor / fit.lx_plus_ly_factor;
     let squares: Vec<f64> = legs
         .iter()
-        .filter(|l| {
-            let o = l.odometry;
-            o.yaw_rad.abs() > TURN_MIN_RAD && o.position().norm() < TURN_MAX_SHIFT_M
-        })
+        .filter(|l| odometry_fit::is_turn_in_place(l.odometry))
         .map(|l| (l.beacons.yaw_rad - turn_ratio * l.odometry.yaw_rad).powi(2))
         .collect();
     (squares.iter().sum::<f64>() / squares.len().max(1) as f64).sqrt()
@@ -267,6 +287,10 @@ pub struct SimOdometry {
     pub true_strafe_factor: f64,
     /// The strafe factor to write minus the true one.
     pub strafe_factor_error: f64,
+    /// The lidar's position to write minus the true one, robot frame, mm (its length).
+    pub lidar_position_error_mm: f64,
+    /// The same before calibrating (the configuration's position).
+    pub uncalibrated_lidar_position_error_mm: f64,
     /// How well the legs agree with the fit (stops with a beacon fix among them).
     pub agreement: Agreement,
     /// Collisions during the odometry drive.
@@ -340,6 +364,9 @@ pub fn drive_in_sim(
     let true_wheel_diameter_m = config.robot.wheel_diameter_m * truth.mean_wheel_radius_scale();
     let true_lx_plus_ly_m = config.robot.half_wheelbase_sum_m() * truth.turn_scale;
     let pct = |a: f64, b: f64| (a / b - 1.0) * 100.0;
+    let [dx, dy] = truth.lidar_position_error_m;
+    let true_lidar_m = Vec2::new(robot.robot.lidar_x_m + dx, robot.robot.lidar_y_m + dy);
+    let believed_lidar_m = Vec2::new(robot.robot.lidar_x_m, robot.robot.lidar_y_m);
     Ok(SimOdometry {
         seed: config.sim.seed,
         world: config.sim.world,
@@ -355,6 +382,8 @@ pub fn drive_in_sim(
         ),
         true_strafe_factor: truth.lateral_factor,
         strafe_factor_error: fit.strafe_factor - truth.lateral_factor,
+        lidar_position_error_mm: (fit.lidar_position_m - true_lidar_m).norm() * 1e3,
+        uncalibrated_lidar_position_error_mm: (believed_lidar_m - true_lidar_m).norm() * 1e3,
         agreement,
         collisions: world.stats().collisions,
         truth,
@@ -443,7 +472,7 @@ pub fn from_recording(path: &Path) -> Result<RobotOdometry, OdometryCalibrateErr
 #[cfg(test)]
 mod tests {
     use super::*;
-    use ratf_core::field::geometry::Pose2;
+    use ratf_core::field::geometry::{Pose2, Vec2};
 
     /// A fresh file path under the temporary folder for this test.
     fn temp_file(name: &str) -> PathBuf {
@@ -490,6 +519,8 @@ mod tests {
             wheel_diameter_m: 0.1,
             lx_plus_ly_m: 0.4,
             strafe_factor: 0.95,
+            lidar_shift_m: Vec2::new(0.003, -0.002),
+            lidar_position_m: Vec2::new(0.073, -0.002),
             straight_m: 4.3,
             turned_rad: 6.2,
             residual_m: 0.001,
@@ -554,10 +585,22 @@ mod tests {
             ),
             Refusal::LxPlusLyImplausible { .. }
         ));
+        let mismeasured = refusal(
+            good,
+            OdometryFit {
+                lidar_shift_m: Vec2::new(0.03, 0.0),
+                ..fit
+            },
+        );
+        assert!(
+            mismeasured.to_string().contains("30 mm")
+                && mismeasured.to_string().contains("lidar_x_m"),
+            "{mismeasured}"
+        );
     }
 
     #[test]
-    fn the_odometry_drive_recovers_radius_within_0_3_pct_and_lx_plus_ly_within_1_pct_over_20_realistic_worlds()
+    fn the_odometry_drive_recovers_radius_lx_plus_ly_and_the_lidar_position_over_20_realistic_worlds()
      {
         let mut config = Config::default();
         config.sim.world = WorldProfile::Realistic;
@@ -569,6 +612,7 @@ mod tests {
             assert_eq!(run.agreement.check(&run.fit), Ok(()), "seed {seed}");
             assert!(run.radius_error_pct.abs() < 0.3, "seed {seed}: {run:?}");
             assert!(run.lx_plus_ly_error_pct.abs() < 1.0, "seed {seed}: {run:?}");
+            assert!(run.lidar_position_error_mm < 2.0, "seed {seed}: {run:?}");
         }
     }
 
@@ -597,6 +641,10 @@ mod tests {
                 );
                 assert!(
                     run.strafe_factor_error.abs() < 0.01,
+                    "{world} seed {seed}: {run:?}"
+                );
+                assert!(
+                    run.lidar_position_error_mm < 3.0,
                     "{world} seed {seed}: {run:?}"
                 );
             }

@@ -247,8 +247,8 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         std::println!(
             "seed {seed}: wheel diameter {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); \
              lx+ly {:.5} m (truth {:.5}; error {:+.3} %, before {:+.3} %); strafe factor {:.3} \
-             (truth {:.3}); \
-             {} of {} stops fixed, {:.2} m straight, {:.2} rad turned, residual {:.1} mm, \
+             (truth {:.3}); lidar at ({:.1}, {:.1}) mm ({:.1} mm off the truth, before {:.1} \
+             mm); {} of {} stops fixed, {:.2} m straight, {:.2} rad turned, residual {:.1} mm, \
              {} collisions",
             f.wheel_diameter_m,
             run.true_wheel_diameter_m,
@@ -260,6 +260,10 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
             run.uncalibrated_lx_plus_ly_error_pct,
             f.strafe_factor,
             run.true_strafe_factor,
+            f.lidar_position_m.x * 1e3,
+            f.lidar_position_m.y * 1e3,
+            run.lidar_position_error_mm,
+            run.uncalibrated_lidar_position_error_mm,
             run.agreement.fixed_stops[0],
             run.agreement.fixed_stops[1],
             f.straight_m,
@@ -279,8 +283,9 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
     std::println!(
         "{} seeds ({} world{}): |wheel radius error| mean {:.3} %, worst {:.3} % (before: \
          worst {:.3} %); |lx+ly error| mean {:.3} %, worst {:.3} % (before: worst {:.3} %); \
-         |strafe factor error| mean {:.3}, worst {:.3} (before: worst {:.3}); {} collisions, \
-         worst drive {}",
+         |strafe factor error| mean {:.3}, worst {:.3} (before: worst {:.3}); lidar position \
+         error mean {:.1} mm, worst {:.1} mm (before: mean {:.1}, worst {:.1} mm); {} \
+         collisions, worst drive {}",
         runs.len(),
         config.sim.world,
         if refused.is_empty() {
@@ -297,6 +302,10 @@ fn sim(args: &OdometryArgs) -> anyhow::Result<()> {
         mean(&|r| r.strafe_factor_error),
         worst(&|r| r.strafe_factor_error),
         worst(&|r| config.robot.strafe_factor - r.true_strafe_factor),
+        mean(&|r| r.lidar_position_error_mm),
+        worst(&|r| r.lidar_position_error_mm),
+        mean(&|r| r.uncalibrated_lidar_position_error_mm),
+        worst(&|r| r.uncalibrated_lidar_position_error_mm),
         runs.iter().map(|r| r.collisions).sum::<u32>(),
         runs.iter().map(|r| r.collisions).max().unwrap_or(0),
     );
@@ -407,6 +416,14 @@ fn report(args: &OdometryArgs, run: &RobotOdometry, file: toml::Table) -> Result
         f.strafe_factor,
         robot.strafe_factor,
         f.strafe_correction
+    );
+    std::println!(
+        "lidar at       ({:.1}, {:.1}) mm (configured ({:.1}, {:.1}) mm; moved {:.1} mm)",
+        f.lidar_position_m.x * 1e3,
+        f.lidar_position_m.y * 1e3,
+        robot.lidar_x_m * 1e3,
+        robot.lidar_y_m * 1e3,
+        f.lidar_shift_m.norm() * 1e3
     );
     std::println!(
         "{:.2} m straight, {:.2} rad turned; residuals {:.1} mm straight, {:.3}° turning",
