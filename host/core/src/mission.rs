@@ -35,8 +35,9 @@
 //! `drop_fix_wait_s` set, ours stands at the drop, magnet on, until a scan taken since the arrival shows where it
 //! is ([`Mission::observe_fix`]: the localiser's
 //! [`crate::localisation::ScanReport::beacons_fix`]), and creeps on by what it is short
-//! where the scan is sure of it ([`DROP_FIX_SIGNIFICANCE`]): about 0.28 s a drop, 1.1–2.4 s a round in the realistic world (README:
-//! Faults). Off by default (`drop_fix_wait_s`, whose documentation says why).
+//! where the scan is sure of it ([`DROP_FIX_SIGNIFICANCE`]): about 0.28 s a drop, 0.7–1.5 s
+//! a round in the realistic world (README: Faults). Off by default (`drop_fix_wait_s`,
+//! whose documentation says why).
 //!
 //! **Held.** While the core holds the robot still (a device silent or its port lost,
 //! `runtime::silence`), it calls [`Mission::hold`] instead of [`Mission::tick`]: the mission
@@ -228,16 +229,18 @@ pub struct MissionConfig {
     pub release_settle_s: f64,
     /// Longest stand at a drop, magnet on, for a scan of the beacons whose reference time
     /// comes after the arrival, s ([`Mission::observe_fix`]): the robot lets go once that
-    /// scan's beacons put it within [`DROP_SHORT_TOLERANCE_M`] of the drop, or after creeping
+    /// scan's beacons put it within [`DROP_SHORT_TOLERANCE_M`] of the drop (or off its
+    /// estimate by no more than their noise, [`DROP_FIX_SIGNIFICANCE`]), or after creeping
     /// on by what they put it short (at most [`MAX_DROP_CREEPS`] times). No scan in time: it
     /// lets go where it stands. 0 (the default): let go on arrival, as the original does.
     /// 0.5 (three revolutions of the X4 at 7 Hz; a scan's reference is its middle, about
     /// 0.07 s before it arrives) for a floor where the wheels slip: a part let go after a
-    /// slip then no longer stands proud of its neighbours, at about 0.28 s a drop (README:
-    /// Faults). Not the default yet: the creep follows one scan, whose noise it does not
-    /// weigh, and in the ideal world's round 2 at seed 34 (10 mm of range noise a point) a
-    /// scan that put the robot 8 mm short of machine B's input sent it 12 mm on into the
-    /// machine's divider.
+    /// slip then no longer stands proud of its neighbours (wheel slip fault, tuning seeds
+    /// 61–110: 23 collisions and 3 actions given up → 7 and 0). Not the default: it costs
+    /// 0.7 / 1.1 / 1.5 s a round in the realistic world, where a drop stands about 0.28 s
+    /// for its scan, and 2 s in the harsh one, where more drops creep (README: Faults).
+    /// Standing only where the approach's last scan doubted the drop cost nothing and saved
+    /// nothing (22 collisions): the slips showed in the scans after the arrival.
     pub drop_fix_wait_s: f64,
     /// Straight reverse after a pick or a drop, m: [`SLOT_EXIT_M`].
     pub back_out_m: f64,
