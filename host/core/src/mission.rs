@@ -1167,14 +1167,11 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             return BodyTwist::default();
         };
         let heading = pose.heading();
-        let offset_m = fix.agreed.minus_estimate_m;
+        let measured_m = fix.agreed.minus_estimate_m;
         let significant =
-            offset_m.dot(heading).abs() > DROP_FIX_SIGNIFICANCE * fix.agreed.std_along_m(heading);
-        let short_m = if significant {
-            self.short_of_drop(action.drop, pose, offset_m)
-        } else {
-            self.short_of_drop(action.drop, pose, Vec2::ZERO)
-        };
+            measured_m.dot(heading).abs() > DROP_FIX_SIGNIFICANCE * fix.agreed.std_along_m(heading);
+        let offset_m = if significant { measured_m } else { Vec2::ZERO };
+        let short_m = self.short_of_drop(action.drop, pose, offset_m);
         if creeps < MAX_DROP_CREEPS
             && short_m > DROP_SHORT_TOLERANCE_M
             && short_m <= MAX_DROP_CREEP_M
