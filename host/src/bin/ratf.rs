@@ -2116,7 +2116,7 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
         let e = &run.errors;
         eprintln!(
             "seed {seed}: scale {:+.3} %, offset {:+.1} mm, yaw {:+.3}° (was {:+.2}°), \
-             beacons {:.1} mm (layout {:.1} mm, shift {:.1} mm), {} collisions",
+             beacons {:.1} mm (layout {:.1} mm, shift {:.1} mm, rotation {:+.3}°), {} collisions",
             e.range_scale_pct,
             e.range_offset_mm,
             e.mount_yaw_deg,
@@ -2124,25 +2124,34 @@ fn calibration_bench_command(args: &CalibrationBenchArgs) -> anyhow::Result<()> 
             e.beacon_max_mm,
             e.beacon_layout_max_mm,
             e.beacon_shift_mm,
+            e.beacon_rotation_deg,
             run.collisions
         );
         runs.push(run);
     }
     let s = CalibrationSummary::of(&runs);
     println!("{:<28} {:>10} {:>10}", "|error|", "mean", "worst");
-    let rows: [(&str, [f64; 2]); 8] = [
+    let rows: [(&str, [f64; 2]); 9] = [
         ("range scale, %", s.range_scale_pct),
         ("range offset, mm", s.range_offset_mm),
         ("mount yaw, °", s.mount_yaw_deg),
         ("beacon centre, mm", s.beacon_max_mm),
         ("pole-to-pole, mm", s.beacon_layout_max_mm),
         ("layout's common shift, mm", s.beacon_shift_mm),
+        ("layout's rotation, °", s.beacon_rotation_deg),
         ("mount yaw uncalibrated, °", s.uncalibrated_mount_yaw_deg),
         ("beacon uncalibrated, mm", s.uncalibrated_beacon_max_mm),
     ];
     for (name, [mean, worst]) in rows {
         println!("{name:<28} {mean:>10.3} {worst:>10.3}");
     }
+    println!(
+        "left for [localisation] (RMS): beacon_frame_shift_std_m {:.5}, \
+         beacon_frame_rotation_std_deg {:.3}, lidar_zero_angle_std_deg {:.3}",
+        s.left.beacon_shift_per_axis_mm * 1e-3,
+        s.left.beacon_rotation_deg,
+        s.left.zero_angle_deg
+    );
     let collisions: u32 = runs.iter().map(|r| r.collisions).sum();
     println!(
         "{} fits, {} refused (seeds {refused:?}), {collisions} collisions, {:.1} s wall",

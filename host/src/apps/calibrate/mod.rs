@@ -83,6 +83,9 @@ pub struct CalibrationErrors {
     /// The fitted layout's common shift from the true one (the mean of the centres'
     /// errors), mm: what moves every dock with it.
     pub beacon_shift_mm: f64,
+    /// The fitted layout's common rotation from the true one about the true poles' centroid,
+    /// its shift taken out (least squares), degrees: what turns every heading with it.
+    pub beacon_rotation_deg: f64,
     /// The same before calibration: the believed mount yaw minus the true one, degrees.
     pub uncalibrated_mount_yaw_deg: f64,
     /// Largest distance of a believed beacon centre from the true one, mm.
@@ -177,6 +180,7 @@ pub fn run_in_sim(
         beacon_max_mm: max_distance(&fit.beacons, &true_beacons) * 1e3,
         beacon_layout_max_mm: layout_error(&fit.beacons, &true_beacons) * 1e3,
         beacon_shift_mm: common_shift(&fit.beacons, &true_beacons).norm() * 1e3,
+        beacon_rotation_deg: common_rotation(&fit.beacons, &true_beacons).to_degrees(),
         uncalibrated_mount_yaw_deg: -truth.lidar_yaw_error_deg,
         uncalibrated_beacon_max_mm: max_distance(&believed_beacons, &true_beacons) * 1e3,
     };
@@ -285,6 +289,23 @@ fn common_shift(fitted: &[Vec2], truth: &[Vec2]) -> Vec2 {
     sum * (1.0 / fitted.len().max(1) as f64)
 }
 
+/// The rotation φ (rad, counter-clockwise) about the centroid c of `truth` that best carries
+/// `truth` onto `fitted` once their common shift s is taken out: the least-squares small
+/// angle Σ (tᵢ − c) × (fᵢ − s − tᵢ) / Σ |tᵢ − c|².
+fn common_rotation(fitted: &[Vec2], truth: &[Vec2]) -> f64 {
+    let shift = common_shift(fitted, truth);
+    let centre =
+        truth.iter().fold(Vec2::ZERO, |sum, t| sum + *t) * (1.0 / truth.len().max(1) as f64);
+    let (mut cross, mut spread) = (0.0, 0.0);
+    for (f, t) in fitted.iter().zip(truth) {
+        let arm = *t - centre;
+        let moved = *f - shift - *t;
+        cross += arm.cross(moved);
+        spread += arm.dot(arm);
+    }
+    if spread > 0.0 { cross / spread } else { 0.0 }
+}
+
 fn layout_error(fitted: &[Vec2], truth: &[Vec2]) -> f64 {
     let mut worst: f64 = 0.0;
     for i in 0..fitted.len() {
@@ -314,10 +335,28 @@ pub struct CalibrationSummary {
     pub beacon_layout_max_mm: [f64; 2],
     /// Mean and worst common shift of the layout, mm.
     pub beacon_shift_mm: [f64; 2],
+    /// Mean and worst |common rotation| of the layout, degrees.
+    pub beacon_rotation_deg: [f64; 2],
     /// Mean and worst |mount yaw error| before calibration, degrees.
     pub uncalibrated_mount_yaw_deg: [f64; 2],
     /// Mean and worst largest beacon error before calibration, mm.
     pub uncalibrated_beacon_max_mm: [f64; 2],
+    /// What the calibration leaves, as the localiser's consider parameters take it.
+    pub left: ConsiderSigmas,
+}
+
+/// The root mean squares over the runs of the errors the localiser cannot see and takes as
+/// consider parameters (`[localisation]`'s `beacon_frame_shift_std_m`,
+/// `beacon_frame_rotation_std_deg`, `lidar_zero_angle_std_deg`): the standard deviations a
+/// zero-mean error of that spread has, so a team can set those keys from its own world.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ConsiderSigmas {
+    /// The layout's common shift, per axis (the RMS norm over √2), mm.
+    pub beacon_shift_per_axis_mm: f64,
+    /// The layout's common rotation, degrees.
+    pub beacon_rotation_deg: f64,
+    /// The lidar's zero angle (its mount yaw), degrees.
+    pub zero_angle_deg: f64,
 }
 
 impl CalibrationSummary {
@@ -331,6 +370,10 @@ impl CalibrationSummary {
                 values.iter().copied().fold(0.0, f64::max),
             ]
         };
+        let rms = |f: &dyn Fn(&CalibrationErrors) -> f64| {
+            let squares: f64 = runs.iter().map(|r| f(&r.errors).powi(2)).sum();
+            (squares / runs.len().max(1) as f64).sqrt()
+        };
         Self {
             runs: runs.len(),
             range_scale_pct: stat(&|e| e.range_scale_pct),
@@ -339,8 +382,14 @@ impl CalibrationSummary {
             beacon_max_mm: stat(&|e| e.beacon_max_mm),
             beacon_layout_max_mm: stat(&|e| e.beacon_layout_max_mm),
             beacon_shift_mm: stat(&|e| e.beacon_shift_mm),
+            beacon_rotation_deg: stat(&|e| e.beacon_rotation_deg),
             uncalibrated_mount_yaw_deg: stat(&|e| e.uncalibrated_mount_yaw_deg),
             uncalibrated_beacon_max_mm: stat(&|e| e.uncalibrated_beacon_max_mm),
+            left: ConsiderSigmas {
+                beacon_shift_per_axis_mm: (rms(&|e| e.beacon_shift_mm) / 2f64.sqrt()),
+                beacon_rotation_deg: rms(&|e| e.beacon_rotation_deg),
+                zero_angle_deg: rms(&|e| e.mount_yaw_deg),
+            },
         }
     }
 }
@@ -355,6 +404,31 @@ mod tests {
         config.sim.world = WorldProfile::Realistic;
         config.sim.seed = 3;
         config
+    }
+
+    #[test]
+    fn a_layout_turned_and_shifted_gives_back_its_rotation_and_shift() {
+        let truth: Vec<Vec2> = ratf_core::field::Field::competition()
+            .beacons()
+            .iter()
+            .map(|b| b.circle.center)
+            .collect();
+        let centre = truth.iter().fold(Vec2::ZERO, |sum, t| sum + *t) * 0.25;
+        let (angle, shift) = (0.002_f64, Vec2::new(0.003, -0.002));
+        let fitted: Vec<Vec2> = truth
+            .iter()
+            .map(|t| {
+                let arm = *t - centre;
+                let turned = Vec2::new(
+                    arm.x * angle.cos() - arm.y * angle.sin(),
+                    arm.x * angle.sin() + arm.y * angle.cos(),
+                );
+                centre + turned + shift
+            })
+            .collect();
+        assert!((common_rotation(&fitted, &truth) - angle).abs() < 1e-6);
+        assert!((common_shift(&fitted, &truth) - shift).norm() < 1e-9);
+        assert!(common_rotation(&truth, &truth).abs() < 1e-15);
     }
 
     #[test]
