@@ -139,17 +139,18 @@ pub struct LocalisationConfig {
     /// positions (the organisers' 5 mm per pole per axis over √4 poles): set 0.0025.
     pub beacon_frame_shift_std_m: f64,
     /// Standard deviation of the four beacons' common rotation about their centroid,
-    /// degrees: a consider parameter, as above. 0.1, chosen on the realistic world's seeds
-    /// 61–110 after calibration (`bench localisation --calibrated`, mean NEES 2.83 in its
-    /// band [2.36, 3.72]). The poles' centres known to about 1.9 mm each (twice the common
-    /// shift's 0.94 mm, over √4 poles) over √(Σ rᵢ²) = 2.08 m would give 0.05°, also in the
-    /// band there (3.18) but 4.52 on seeds 11–60, seen before this choice: the larger, safer
-    /// of the two was kept. Without the sheet measures: 0.14 (5 mm per pole).
+    /// degrees: a consider parameter, as above. 0.04: what `ratf calibrate` leaves of it,
+    /// its RMS over the realistic world's seeds 61–110 (0.038°; 0.045° on seeds 11–60;
+    /// `bench calibration --seeds 50 --first-seed 61` prints it beside the key's name). It
+    /// was 0.1, chosen on the NEES when the pose carried the lidar's uncalibrated position
+    /// and the filter's heading share read 0.40 of its 1 (`bench localisation
+    /// --calibrated`). Without the sheet measures: 0.14 (5 mm per pole).
     pub beacon_frame_rotation_std_deg: f64,
     /// Standard deviation of the lidar's zero angle as configured (`robot.lidar_yaw_deg`),
-    /// degrees: a consider parameter, as above. 0.05: after `ratf calibrate` (seeds 1–10 of
-    /// the realistic world: RMS 0.044°, largest 0.09°); a robot whose zero angle was not
-    /// calibrated should set 1.7 (the X4 datasheet's ±3°, uniform).
+    /// degrees: a consider parameter, as above. 0.035: what `ratf calibrate` leaves of it,
+    /// its RMS over the realistic world's seeds 61–110 (0.031° on seeds 11–60; `bench
+    /// calibration` prints it); a robot whose zero angle was not calibrated should set 1.7
+    /// (the X4 datasheet's ±3°, uniform).
     pub lidar_zero_angle_std_deg: f64,
     /// Standard deviation of the lidar's position on the robot as configured
     /// (`robot.lidar_x_m`, `lidar_y_m`), per axis, m: a consider parameter, as above.
@@ -200,8 +201,8 @@ impl Default for LocalisationConfig {
             inflate_above_median_nis: 5.99,
             inflate_above_joint_nis: 11.34,
             beacon_frame_shift_std_m: 0.001,
-            beacon_frame_rotation_std_deg: 0.1,
-            lidar_zero_angle_std_deg: 0.05,
+            beacon_frame_rotation_std_deg: 0.04,
+            lidar_zero_angle_std_deg: 0.035,
             lidar_mount_position_std_m: 0.0005,
         }
     }
