@@ -273,8 +273,8 @@ fn slot_to_leave(field: &Field, pose: Pose2) -> Option<&Slot> {
 /// it stood, up to 20 mm off the slot's centre in a 130 mm slot, so the part and the face
 /// leave the dividers only along their own line: an exit that steered onto the slot's
 /// centre line moved them across by the robot's docking offset while they were still
-/// between the dividers, and grazed one (harsh world, tuning seeds 61–76: most of the
-/// collisions of a part carried out of incoming slot 4, with its right-hand divider).
+/// between the dividers, and grazed one (harsh world, tuning seeds 61–76, every round:
+/// 20 → 3 collisions of a part carried out of an incoming slot with its dividers).
 fn slot_exit(field: &Field, pose: Pose2) -> Option<Vec2> {
     slot_to_leave(field, pose).map(|docked| {
         let normal = Vec2::from_angle(docked.face_normal_rad);
