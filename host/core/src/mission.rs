@@ -2011,12 +2011,11 @@ mod tests {
 
     /// As [`beacon_fix`], with a standard deviation of `std_m` each way.
     fn noisy_beacon_fix(reference_time_us: u64, offset_m: Vec2, std_m: f64) -> BeaconFix {
-        let variance = std_m * std_m;
         BeaconFix {
             reference_time_us,
             agreed: AgreedFix {
                 minus_estimate_m: offset_m,
-                covariance_m2: [[variance, 0.0], [0.0, variance]],
+                covariance_m2: nalgebra::Matrix2::from_diagonal_element(std_m * std_m),
             },
         }
     }

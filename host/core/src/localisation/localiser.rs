@@ -637,10 +637,7 @@ impl PoseEstimator for Localiser {
                     prediction.x + j.correction[0] - posterior.x,
                     prediction.y + j.correction[1] - posterior.y,
                 ),
-                covariance_m2: [
-                    [j.covariance[(0, 0)], j.covariance[(0, 1)]],
-                    [j.covariance[(1, 0)], j.covariance[(1, 1)]],
-                ],
+                covariance_m2: j.covariance.fixed_view::<2, 2>(0, 0).into_owned(),
             }
         });
         if report.beacons_used as usize >= MIN_FIX_BEACONS {

@@ -111,7 +111,7 @@ pub mod localiser;
 pub mod original;
 pub mod relock;
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix2, Matrix3, Vector2};
 
 use crate::drivers::imu::ImuSample;
 use crate::drivers::x4::scan::Scan;
@@ -179,18 +179,15 @@ pub struct AgreedFix {
     /// The covariance of where the beacons put the robot (its x, y block), from their own
     /// observations' covariances, m²: what one scan's noise alone could make of
     /// `minus_estimate_m` when the filter is right.
-    pub covariance_m2: [[f64; 2]; 2],
+    pub covariance_m2: Matrix2<f64>,
 }
 
 impl AgreedFix {
     /// The standard deviation of where the beacons put the robot along the unit vector
     /// `direction` (world frame), m.
     pub fn std_along_m(&self, direction: Vec2) -> f64 {
-        let [[xx, xy], [yx, yy]] = self.covariance_m2;
-        let (x, y) = (direction.x, direction.y);
-        (x * x * xx + x * y * (xy + yx) + y * y * yy)
-            .max(0.0)
-            .sqrt()
+        let d = Vector2::new(direction.x, direction.y);
+        d.dot(&(self.covariance_m2 * d)).max(0.0).sqrt()
     }
 }
 

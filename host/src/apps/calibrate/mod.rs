@@ -280,13 +280,14 @@ fn max_distance(a: &[Vec2], b: &[Vec2]) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The mean of `points` (zero for none).
+fn centroid(points: &[Vec2]) -> Vec2 {
+    points.iter().fold(Vec2::ZERO, |sum, p| sum + *p) * (1.0 / points.len().max(1) as f64)
+}
+
 /// The mean of `fitted − truth` over the poles.
 fn common_shift(fitted: &[Vec2], truth: &[Vec2]) -> Vec2 {
-    let sum = fitted
-        .iter()
-        .zip(truth)
-        .fold(Vec2::ZERO, |sum, (f, t)| sum + (*f - *t));
-    sum * (1.0 / fitted.len().max(1) as f64)
+    centroid(fitted) - centroid(truth)
 }
 
 /// The rotation φ (rad, counter-clockwise) about the centroid c of `truth` that best carries
@@ -294,8 +295,7 @@ fn common_shift(fitted: &[Vec2], truth: &[Vec2]) -> Vec2 {
 /// angle Σ (tᵢ − c) × (fᵢ − s − tᵢ) / Σ |tᵢ − c|².
 fn common_rotation(fitted: &[Vec2], truth: &[Vec2]) -> f64 {
     let shift = common_shift(fitted, truth);
-    let centre =
-        truth.iter().fold(Vec2::ZERO, |sum, t| sum + *t) * (1.0 / truth.len().max(1) as f64);
+    let centre = centroid(truth);
     let (mut cross, mut spread) = (0.0, 0.0);
     for (f, t) in fitted.iter().zip(truth) {
         let arm = *t - centre;
@@ -413,7 +413,7 @@ mod tests {
             .iter()
             .map(|b| b.circle.center)
             .collect();
-        let centre = truth.iter().fold(Vec2::ZERO, |sum, t| sum + *t) * 0.25;
+        let centre = centroid(&truth);
         let (angle, shift) = (0.002_f64, Vec2::new(0.003, -0.002));
         let fitted: Vec<Vec2> = truth
             .iter()
