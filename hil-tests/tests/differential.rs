@@ -1,7 +1,8 @@
 //! Differential test: the ELF against `ratf_protocol::mcu::Mcu` on the host.
 //!
 //! The firmware runs a scripted 20-period session: command batches (speed references,
-//! `K`, `L`, the controller settings `M`..`T` with one refused value), garbage, a
+//! `K`, `L`, the stop on the switch `U` armed across a press and disarmed, the controller
+//! settings `M`..`T` with one refused value), garbage, a
 //! corrupted batch, a silence long enough to trip the watchdog and a
 //! resume, encoder edges and skipped transitions, and switch presses. The host `Mcu` gets
 //! the same bytes at the same times (on the firmware's clock), the same encoder deltas per
@@ -65,7 +66,10 @@ fn script() -> Vec<Period> {
     });
     periods[3].sends.push(host.batch(&with_k));
     periods[4].sends.push(b"xyzq\x00\xffG12 ".to_vec());
-    periods[4].sends.push(host.batch(&wheel_speeds(refs)));
+    // The stop on the switch armed before the press below, disarmed two periods later.
+    let mut armed = wheel_speeds(refs);
+    armed.push(Command::StopOnSwitch { armed: true });
+    periods[4].sends.push(host.batch(&armed));
     periods[4].skips = [0, 2, 0, 1];
     periods[4].switch_pressed = Some(true);
     let mut corrupted = host.batch(&[Command::MotorPwm {
@@ -78,7 +82,9 @@ fn script() -> Vec<Period> {
     // each after the period's references (batches are made in sending order: each carries
     // the next sequence number); the voltage limit above the new battery is refused.
     let setting = |setting, value| Command::Setting { setting, value };
-    periods[6].sends.push(host.batch(&wheel_speeds(refs)));
+    let mut disarmed = wheel_speeds(refs);
+    disarmed.push(Command::StopOnSwitch { armed: false });
+    periods[6].sends.push(host.batch(&disarmed));
     periods[6].sends.push(host.batch(&[
         setting(Setting::Kc, 0.7),
         setting(Setting::Ki, 6.5),
@@ -200,6 +206,7 @@ fn firmware_transcript_equals_the_host_mcu() {
     let mut mcu = Mcu::new(McuConfig::default());
     let mut expected: Vec<Vec<u8>> = vec![mcu.boot().as_bytes().to_vec()];
     let mut actuations: Vec<(Actuation, bool)> = Vec::new();
+    let mut stopped_on_switch = Vec::new();
     let mut now_us: u32 = 0;
     let mut switch_pressed = false;
     let mut skips_total = [0u8; 4];
@@ -223,6 +230,7 @@ fn firmware_transcript_equals_the_host_mcu() {
         let out = mcu.control_tick(now_us, &inputs);
         expected.push(out.telemetry.as_bytes().to_vec());
         actuations.push((out.actuation, mcu.solenoid_on()));
+        stopped_on_switch.push(mcu.stopped_on_switch());
         for d in &deliveries[n] {
             mcu.receive(&d.bytes, now_us.wrapping_add(d.offset_us));
         }
@@ -264,6 +272,7 @@ fn firmware_transcript_equals_the_host_mcu() {
     assert!(actuations[12..15].iter().any(|(a, _)| a.pwm == [0; 4]));
     assert!(actuations[PERIODS - 1].0.pwm.iter().all(|&p| p > 0));
     assert!(actuations.iter().any(|(_, s)| *s));
+    assert!(stopped_on_switch[5] && !stopped_on_switch[PERIODS - 1]);
     let last = TelemetryBatch::parse(&firmware_batches[PERIODS])
         .unwrap_or_else(|e| panic!("last firmware batch: {e}"));
     let limit = Setting::VoltageLimit.bit();

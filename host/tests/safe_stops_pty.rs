@@ -173,7 +173,12 @@ fn forward(mut master: File, world: &Path, batches: &Mutex<Vec<Batch>>, quit: &A
                     current.speeds = [None; WHEEL_COUNT];
                     current.solenoid = None;
                 }
-                Ok(MegaCommand::MotorPwm { .. } | MegaCommand::Setting { .. }) | Err(_) => {}
+                Ok(
+                    MegaCommand::MotorPwm { .. }
+                    | MegaCommand::Setting { .. }
+                    | MegaCommand::StopOnSwitch { .. },
+                )
+                | Err(_) => {}
             });
             batches
                 .lock()

@@ -21,6 +21,10 @@
 //!
 //! - `G`..`J` set a wheel's speed reference and enable its PI controller; `K` disables that
 //!   wheel's PI and sets its PWM directly; `L` sets the solenoid.
+//! - Stop on the switch (`U`, ours: [`Command::StopOnSwitch`]): while armed, the tick that
+//!   first reads the switch pressed sets every wheel under speed control to a reference of 0
+//!   (the PI brakes it), and every `G`..`J` after it counts as 0, until `U` 0. A reset
+//!   disarms it.
 //! - Watchdog: if no `G` or `K` arrived for more than [`McuConfig::watchdog_timeout_us`],
 //!   the next tick stops every motor at once (PWM 0, controllers disabled) and releases the
 //!   solenoid [`SOLENOID_HOLD_AFTER_STOP_US`] later, so a carried part stays on the magnet
@@ -50,7 +54,8 @@ use core::f32::consts::TAU;
 pub const TELEMETRY_FRAMES: usize = 9;
 /// Largest telemetry batch on the wire, bytes (with its checksum frame).
 pub const TELEMETRY_BATCH_MAX_LEN: usize = (TELEMETRY_FRAMES + 1) * FRAME_LEN;
-/// Largest host batch the Mega buffers, frames (the host sends `G H I J L`).
+/// Largest host batch the Mega buffers, frames (the host sends `G H I J L U`, and the eight
+/// settings `M`..`T` in a batch of their own).
 pub const RX_BATCH_CAPACITY: usize = 8;
 
 /// The Mega's configuration. Defaults are the competition robot's; each says its source.
@@ -250,6 +255,10 @@ pub struct Mcu {
     pending: Option<PendingTick>,
     bad_messages: u8,
     settings_ack: SettingsAck,
+    /// `U` armed the stop on the switch.
+    stop_on_switch: bool,
+    /// The switch closed while armed: the wheels are held at zero until `U` 0.
+    stopped_on_switch: bool,
 }
 
 impl Mcu {
@@ -273,6 +282,8 @@ impl Mcu {
             last_tick_us: None,
             pending: None,
             bad_messages: 0,
+            stop_on_switch: false,
+            stopped_on_switch: false,
             settings_ack: SettingsAck {
                 applied: 0,
                 refused: 0,
@@ -324,7 +335,11 @@ impl Mcu {
                 if !matches!(state.drive, Drive::Speed(_)) {
                     state.controller.reset();
                 }
-                state.drive = Drive::Speed(speed_rad_s);
+                state.drive = Drive::Speed(if self.stopped_on_switch {
+                    0.0
+                } else {
+                    speed_rad_s
+                });
                 // As in the original, G (wheel 0) feeds the watchdog: the host sends G..J
                 // together, G first.
                 if wheel == Wheel::BackRight {
@@ -338,6 +353,10 @@ impl Mcu {
                 self.feed_watchdog(now_us);
             }
             Ok(Command::Solenoid { on }) => self.solenoid_requested = on,
+            Ok(Command::StopOnSwitch { armed }) => {
+                self.stop_on_switch = armed;
+                self.stopped_on_switch &= armed;
+            }
             Ok(Command::Setting { setting, value }) => self.apply_setting(setting, value),
             Err(_) => {
                 self.bad_messages = self.bad_messages.wrapping_add(1);
@@ -378,6 +397,11 @@ impl Mcu {
         self.solenoid_requested && (!self.timed_out || self.stopped_at_us.is_some())
     }
 
+    /// True while the switch has stopped the wheels (`U`, [`Command::StopOnSwitch`]).
+    pub fn stopped_on_switch(&self) -> bool {
+        self.stopped_on_switch
+    }
+
     /// True while the watchdog has the motors stopped (also at boot, before the host speaks).
     pub fn timed_out(&self) -> bool {
         self.timed_out
@@ -408,6 +432,14 @@ impl Mcu {
             _ => self.config.control_period_us,
         };
         self.last_tick_us = Some(now_us);
+        if self.stop_on_switch && inputs.switch_pressed && !self.stopped_on_switch {
+            self.stopped_on_switch = true;
+            for wheel in &mut self.wheels {
+                if let Drive::Speed(_) = wheel.drive {
+                    wheel.drive = Drive::Speed(0.0);
+                }
+            }
+        }
         let dt_s = period_us as f32 * 1.0e-6;
         let rad_per_tick = TAU / self.config.ticks_per_wheel_rev;
         let mut measured_rad_s = [0.0; WHEEL_COUNT];
@@ -657,6 +689,50 @@ mod tests {
         let whole = script(&mut Mcu::new(McuConfig::default()), false);
         let halves = script(&mut Mcu::new(McuConfig::default()), true);
         assert_eq!(whole, halves);
+    }
+
+    /// Asks every wheel for 10 rad/s while it turns at 5 (45 ticks a period), `U` armed
+    /// (until `disarm_at`) or not, the switch closing at the fifth tick; the PWMs of wheel 0,
+    /// tick by tick.
+    fn approach_onto_the_switch(armed: bool, disarm_at: Option<u32>) -> Vec<i16> {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut host = host();
+        (0..12u32)
+            .map(|i| {
+                let now = i * PERIOD;
+                let mut batch = speeds(10.0);
+                let armed_now = armed && disarm_at.is_none_or(|at| i < at);
+                batch.push(Command::StopOnSwitch { armed: armed_now });
+                send(&mut mcu, &mut host, &batch, now);
+                let inputs = TickInputs {
+                    encoder_deltas: [45; 4],
+                    switch_pressed: i >= 5,
+                    ..TickInputs::default()
+                };
+                mcu.control_tick(now, &inputs).actuation.pwm[0]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn armed_the_mega_brakes_at_the_tick_that_reads_the_switch_and_stays_stopped() {
+        let pwm = approach_onto_the_switch(true, None);
+        assert!(pwm[4] > 0, "driving before the switch: {pwm:?}");
+        // From the tick that reads it, the references are 0 whatever the host still sends:
+        // the PI brakes the turning wheel.
+        for (i, &p) in pwm.iter().enumerate().skip(5) {
+            assert!(p < pwm[4], "tick {i} did not brake: {pwm:?}");
+        }
+        assert!(pwm[11] <= 0, "still driving at the end: {pwm:?}");
+    }
+
+    #[test]
+    fn disarmed_or_never_armed_the_switch_leaves_the_wheels_to_the_host() {
+        let never = approach_onto_the_switch(false, None);
+        assert!(never.iter().skip(1).all(|&p| p > 0), "{never:?}");
+        // Disarmed at tick 8, the host's 10 rad/s drives the wheels again.
+        let freed = approach_onto_the_switch(true, Some(8));
+        assert!(freed[7] <= 0 && freed[11] > 0, "{freed:?}");
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //!
 //! Host → Mega ([`Command`], uppercase letters): `G H I J` wheel speed reference (IEEE-754
 //! `f32` bits, wheel rad/s), `K` direct PWM (motor index in bits 24–25, signed `i16` PWM in
-//! bits 0–15), `L` solenoid (0 or 1).
+//! bits 0–15), `L` solenoid (0 or 1), `U` stop on the switch (0 or 1, ours: see
+//! [`Command::StopOnSwitch`]).
 //!
 //! Mega → host ([`Telemetry`], lowercase letters): `g h i j` cumulative encoder ticks
 //! (`i32`, wrapping), `k` measured control period (µs), `s` switch level (0 = pressed, as
@@ -70,6 +71,8 @@ pub const TICKS_CHANNELS: [u8; WHEEL_COUNT] = *b"ghij";
 pub const MOTOR_PWM_CHANNEL: u8 = b'K';
 /// Solenoid channel.
 pub const SOLENOID_CHANNEL: u8 = b'L';
+/// Stop-on-switch channel (ours).
+pub const STOP_ON_SWITCH_CHANNEL: u8 = b'U';
 /// Measured control period channel.
 pub const LOOP_PERIOD_CHANNEL: u8 = b'k';
 /// Switch level channel.
@@ -159,6 +162,17 @@ pub enum Command {
         /// True energises the electromagnet.
         on: bool,
     },
+    /// `U` (ours): while armed, the Mega stops the wheels under speed control itself, at the
+    /// control tick that first reads the box switch pressed, and holds their references at
+    /// zero until the host disarms it. The host arms it on the last stretch of a docking
+    /// approach to a part, so the robot stops up to a telemetry batch, the host's tick, a
+    /// command and a control period sooner than by the host's own reading of the switch
+    /// (about 30 ms, some 2 mm at the approach's 6 cm/s), which is where its body met a
+    /// neighbour standing proud (issue 11, the harsh world). An original Mega ignores it.
+    StopOnSwitch {
+        /// True arms the stop; false disarms it and frees a stop already made.
+        armed: bool,
+    },
     /// `M`..`T`: one controller setting ([`crate::settings`]). Decoding checks only that
     /// the value is finite; the Mega checks its range ([`Setting::validate`]).
     Setting {
@@ -181,6 +195,7 @@ impl Command {
                 (u32::from(wheel as u8) << 24) | u32::from(pwm as u16),
             ),
             Self::Solenoid { on } => (SOLENOID_CHANNEL, u32::from(on)),
+            Self::StopOnSwitch { armed } => (STOP_ON_SWITCH_CHANNEL, u32::from(armed)),
             Self::Setting { setting, value } => (setting.channel(), value.to_bits()),
         };
         // Every letter above is a valid channel letter.
@@ -214,6 +229,9 @@ impl Command {
             }
             SOLENOID_CHANNEL => Ok(Self::Solenoid {
                 on: boolean(channel, value)?,
+            }),
+            STOP_ON_SWITCH_CHANNEL => Ok(Self::StopOnSwitch {
+                armed: boolean(channel, value)?,
             }),
             _ => match Setting::from_channel(channel) {
                 Some(setting) => {
@@ -377,6 +395,7 @@ mod tests {
                 .prop_map(|(wheel, speed_rad_s)| Command::WheelSpeed { wheel, speed_rad_s }),
             (wheel(), any::<i16>()).prop_map(|(wheel, pwm)| Command::MotorPwm { wheel, pwm }),
             any::<bool>().prop_map(|on| Command::Solenoid { on }),
+            any::<bool>().prop_map(|armed| Command::StopOnSwitch { armed }),
             (0usize..8, -1.0e6f32..1.0e6).prop_map(|(k, value)| Command::Setting {
                 setting: Setting::ALL[k],
                 value,
@@ -439,6 +458,10 @@ mod tests {
         assert_eq!(
             &encoded_command(Command::Solenoid { on: true }),
             b"L00000001"
+        );
+        assert_eq!(
+            &encoded_command(Command::StopOnSwitch { armed: true }),
+            b"U00000001"
         );
         let limit = Command::Setting {
             setting: Setting::VoltageLimit,
@@ -508,8 +531,15 @@ mod tests {
             Err(MessageError::NotFinite { channel: b'S' })
         );
         assert_eq!(
-            Command::from_frame(frame(b'U', 0)),
-            Err(MessageError::UnknownChannel(b'U'))
+            Command::from_frame(frame(b'U', 2)),
+            Err(MessageError::NotBoolean {
+                channel: b'U',
+                value: 2
+            })
+        );
+        assert_eq!(
+            Command::from_frame(frame(b'V', 0)),
+            Err(MessageError::UnknownChannel(b'V'))
         );
         assert_eq!(
             Command::from_frame(frame(b'g', 0)),

@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use crate::config::{Config, Policy as Driving};
 use crate::control::creep::{Creep, CreepLimits};
-use crate::control::follower::{Follower, PathFollower, Status};
+use crate::control::follower::{Follower, PathFollower, Status, in_docking_stretch};
 use crate::control::original::{OriginalFollower, OriginalParams};
 use crate::control::route::{
     LegPlanner, ORIGINAL_APPROACH_M, Route, plan_original_route, stall_mark,
@@ -560,6 +560,19 @@ impl Navigator for RouteNavigator {
         }
     }
 
+    fn stops_on_switch(&self) -> bool {
+        // The original's Mega knew no such stop (a faithful baseline).
+        if self.preset != Driving::Ours || !self.dock {
+            return false;
+        }
+        self.creep.is_some()
+            || self
+                .route
+                .as_ref()
+                .zip(self.follower.progress_m())
+                .is_some_and(|(route, s_m)| in_docking_stretch(route, s_m))
+    }
+
     fn progress_m(&self) -> Option<f64> {
         // The creep to the switch is watched by its own limit.
         self.creep
@@ -618,6 +631,7 @@ impl Navigator for RouteNavigator {
 mod tests {
     use super::*;
     use crate::field::PartColor;
+    use crate::field::stations::Slot;
     use crate::planning::tasks::model::machine_area;
     use crate::planning::tasks::{
         BranchAndBound, Location, Original, Rules, StraightLineTimes, Timing,
@@ -651,6 +665,30 @@ mod tests {
         assert!(!navigator.route().unwrap().carries_part_in());
         navigator.go_to(0, field.start_pose(), drop, false, Vec2::ZERO);
         assert!(navigator.route().unwrap().carries_part_in());
+    }
+
+    #[test]
+    fn our_mega_stops_on_its_switch_only_on_the_last_stretch_to_a_part() {
+        let config = Config::default();
+        let field = Field::competition();
+        let (pick, drop) = (
+            *field.incoming_slot(0).unwrap(),
+            *field.outgoing_slot(0).unwrap(),
+        );
+        let short_of = |slot: Slot| slot.pick_pose.compose(Pose2::new(-0.02, 0.0, 0.0));
+        let armed_near = |preset, slot: Slot, dock| {
+            let mut navigator = RouteNavigator::new(&config, preset);
+            navigator.go_to(0, field.start_pose(), slot.waypoint, dock, Vec2::ZERO);
+            navigator.update(20_000, field.start_pose(), false);
+            let at_start = navigator.stops_on_switch();
+            navigator.update(40_000, short_of(slot), false);
+            (at_start, navigator.stops_on_switch())
+        };
+        assert_eq!(armed_near(Driving::Ours, pick, true), (false, true));
+        // A drop ends on its pose, the switch closed all along; the original's Mega knew
+        // no such stop.
+        assert_eq!(armed_near(Driving::Ours, drop, false), (false, false));
+        assert_eq!(armed_near(Driving::Original, pick, true), (false, false));
     }
 
     #[test]

@@ -208,6 +208,13 @@ pub trait Navigator {
     /// ran out of time while moving): plan the next legs round it. By default nothing
     /// changes.
     fn blocked_here(&mut self, _pose: Pose2) {}
+    /// True on the last stretch of a docking approach to a part, and on the creep on to it,
+    /// where the switch's closing ends the leg: the mission then has the Mega stop the
+    /// wheels itself when its switch closes ([`MissionOutput::stop_on_switch`]). By default
+    /// false.
+    fn stops_on_switch(&self) -> bool {
+        false
+    }
     /// How far along the current leg's route the robot has come, m, for the stall watch
     /// (`mission::stall`). By default `None`: no watch, only `drive_timeout_s`.
     fn progress_m(&self) -> Option<f64> {
@@ -672,6 +679,12 @@ pub struct MissionOutput {
     pub twist: BodyTwist,
     /// Electromagnet level.
     pub solenoid_on: bool,
+    /// Have the Mega stop the wheels itself at the control tick that reads its switch closed
+    /// (`ratf_protocol::messages::Command::StopOnSwitch`): going to a pick, on the docking
+    /// stretch where the navigator stops on the switch ([`Navigator::stops_on_switch`]). The
+    /// robot then stops some 30 ms sooner than by the host's own reading of the switch (a
+    /// telemetry batch, the host's tick, the command, a control period).
+    pub stop_on_switch: bool,
     /// What happened this tick, in order.
     pub events: Vec<MissionEvent>,
 }
@@ -794,6 +807,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         MissionOutput {
             twist,
             solenoid_on: self.solenoid_on,
+            stop_on_switch: matches!(self.state, State::ToPick { .. })
+                && self.navigator.stops_on_switch(),
             events,
         }
     }

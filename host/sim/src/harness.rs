@@ -117,6 +117,7 @@ impl SimulatedRobot {
                 wheels: Some(WheelCommand {
                     wheel_speeds_rad_s: output.wheel_speeds_rad_s,
                     solenoid_on: output.solenoid_on,
+                    stop_on_switch: false,
                     twist_scale: output.twist_scale,
                     open_loop_pwm: None,
                 }),

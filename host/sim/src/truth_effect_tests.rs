@@ -32,7 +32,7 @@ fn drive(world: &mut World, steps: u64) -> Vec<u64> {
     for step in 0..steps {
         if step % 20 == 0 {
             let bytes = link
-                .encode_references(wheels, false)
+                .encode_references(wheels, false, false)
                 .expect("references within the protocol's range");
             world.send_to_mega(&bytes);
         }

@@ -1077,7 +1077,7 @@ mod tests {
             .map(|w| w as f32);
         for step in 0..1000 {
             if step % 20 == 0 {
-                let bytes = link.encode_references(wheels, false).unwrap();
+                let bytes = link.encode_references(wheels, false, false).unwrap();
                 world.send_to_mega(&bytes);
             }
             world.step();
@@ -1116,7 +1116,7 @@ mod tests {
         let wheels = mecanum.inverse(twist).map(|w| w as f32);
         for step in 0..steps {
             if step % 20 == 0 {
-                let bytes = link.encode_references(wheels, solenoid).unwrap();
+                let bytes = link.encode_references(wheels, solenoid, false).unwrap();
                 world.send_to_mega(&bytes);
             }
             world.step();
@@ -1463,7 +1463,7 @@ mod tests {
             .map(|w| w as f32);
         for step in 0..800 {
             if step % 20 == 0 {
-                let bytes = link.encode_references(wheels, false).unwrap();
+                let bytes = link.encode_references(wheels, false, false).unwrap();
                 world.send_to_mega(&bytes);
             }
             world.step();

@@ -109,8 +109,8 @@ fn a_slow_mega_link_is_refused_for_the_references_too() {
     let issues = rejected("[link]\nmega_baud = 19200\n");
     assert!(
         issues.iter().any(|i| i
-            .starts_with("link.mega_baud = 19200: the references do not fit: a batch of 54 bytes")
-            && i.contains("at least 33750 baud")),
+            .starts_with("link.mega_baud = 19200: the references do not fit: a batch of 63 bytes")
+            && i.contains("at least 39375 baud")),
         "{issues:#?}"
     );
 }

@@ -21,9 +21,11 @@ pub(crate) const STRAIGHT_RUN_M: f64 = 0.26;
 /// (`ratf_sim::devices::HOST_TICK_PERIOD_US`, `ratf_host::devices::HOST_TICK_PERIOD_US`).
 pub(crate) const HOST_REFERENCE_PERIOD_US: u32 = 20_000;
 
-/// Bytes of one host → Mega reference batch: `G H I J L` and the checksum frame `Z`, 9
-/// bytes each (protocol/README.md §2–3).
-pub(crate) const REFERENCE_BATCH_BYTES: u32 = 6 * 9;
+/// Bytes of one host → Mega reference batch: `G H I J L U` and the checksum frame `Z`, 9
+/// bytes each (protocol/README.md §2–3; [`crate::drivers::mega_link::REFERENCE_BATCH_FRAMES`]).
+pub(crate) const REFERENCE_BATCH_BYTES: u32 = ((crate::drivers::mega_link::REFERENCE_BATCH_FRAMES
+    + 1)
+    * ratf_protocol::channels::FRAME_LEN) as u32;
 
 /// The IMU's read period, µs: the driver configures 200 Hz (`drivers::imu`, sample-rate
 /// divider 4) and the simulator reads it at that rate.

@@ -91,7 +91,7 @@ fn mega_references(config: &Config, c: &mut Checker<'_>) {
         (f64::from(REFERENCE_BATCH_BYTES) * BITS_PER_BYTE * 1e6 / allowed).ceil() as u64;
     c.require("mega_baud", baud, wire <= allowed, || {
         format!(
-            "the references do not fit: a batch of {REFERENCE_BATCH_BYTES} bytes (G H I J L Z) \
+            "the references do not fit: a batch of {REFERENCE_BATCH_BYTES} bytes (G H I J L U Z) \
              × 10 bits / {baud} baud = {:.2} ms on the wire, more than {:.0} % of the host's \
              {} ms tick ({:.2} ms); at least {lowest_baud} baud",
             wire / 1000.0,

@@ -241,6 +241,13 @@ fn slow_down(error: f64, free: f64, stop: f64) -> f64 {
     (1.0 - (error - free) / stop).clamp(0.0, 1.0)
 }
 
+/// True where `s_m` along `route` lies on its docking approach to a part
+/// ([`Route::docks_on_switch`]), where the switch's closing ends the leg: the last
+/// `dock_length_m` and a little slack before it.
+pub fn in_docking_stretch(route: &Route, s_m: f64) -> bool {
+    route.docks_on_switch() && s_m >= route.length_m() - route.dock_length_m() - DOCK_SLACK_M
+}
+
 /// `world` (m/s, world frame) in the frame of a robot with yaw `yaw_rad`.
 pub fn to_body(world: Vec2, yaw_rad: f64) -> Vec2 {
     world.rotated(-yaw_rad)
@@ -311,9 +318,7 @@ impl PathFollower for Follower {
         self.segment = at.segment;
         self.progress_m = Some(at.s_m);
         let goal = route.goal();
-        let length = route.length_m();
-        let in_dock =
-            route.docks_on_switch() && at.s_m >= length - route.dock_length_m() - DOCK_SLACK_M;
+        let in_dock = in_docking_stretch(route, at.s_m);
         if in_dock && switch_pressed {
             self.status = Status::Docked;
             self.speed_m_s = 0.0;

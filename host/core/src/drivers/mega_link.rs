@@ -20,7 +20,7 @@
 //! totals restart from zero, so the next batch carries no deltas. A partial batch is
 //! dropped. This is a resynchronisation point, not just a state wipe (§10.1).
 //!
-//! Send: [`MegaLink::encode_references`] writes `G H I J L` and [`MegaLink::encode_pwm`]
+//! Send: [`MegaLink::encode_references`] writes `G H I J L U` and [`MegaLink::encode_pwm`]
 //! writes `K K K K L`, each closed by a checksum frame `Z` ([`BatchWriter`]). An original
 //! Mega ignores `Z` (original-system.md §2.6), so checksums are safe to send to it. The host
 //! sends references on its own timer; [`reference_is_stale`] is the host watchdog, on the
@@ -37,6 +37,10 @@ use ratf_protocol::settings::SettingsAck;
 /// Largest Mega batch buffered, frames: our Mega sends 8 (`g h i j k s q x`); twice that
 /// leaves room without letting a broken stream hold much.
 const RX_BATCH_CAPACITY: usize = 16;
+
+/// Frames of one reference batch before its checksum frame: `G H I J L U`
+/// ([`MegaLink::encode_references`]).
+pub const REFERENCE_BATCH_FRAMES: usize = WHEEL_COUNT + 2;
 
 /// The host watchdog's default timeout, µs: 200 ms, the original host driver's constant
 /// (original-system.md §3.1). The Mega's own watchdog (100 ms after the last `G`/`K`) stops
@@ -381,13 +385,18 @@ impl MegaLink {
 
     /// The bytes of one reference batch: `G H I J` (wheel speed references, wheel rad/s,
     /// motor index order: back-right, back-left, front-right, front-left), `L` (solenoid),
-    /// and the checksum frame.
+    /// `U` (the Mega's stop on the switch armed or not,
+    /// [`ratf_protocol::messages::Command::StopOnSwitch`]) and the checksum frame.
     pub fn encode_references(
         &mut self,
         wheel_speeds_rad_s: [f32; WHEEL_COUNT],
         solenoid_on: bool,
+        stop_on_switch: bool,
     ) -> Result<Vec<u8>, EncodeError> {
-        let mut commands = [Command::Solenoid { on: solenoid_on }; WHEEL_COUNT + 1];
+        let mut commands = [Command::Solenoid { on: solenoid_on }; REFERENCE_BATCH_FRAMES];
+        commands[WHEEL_COUNT + 1] = Command::StopOnSwitch {
+            armed: stop_on_switch,
+        };
         for (k, &speed_rad_s) in wheel_speeds_rad_s.iter().enumerate() {
             if !speed_rad_s.is_finite() {
                 return Err(EncodeError::NotFinite {
@@ -502,6 +511,23 @@ mod tests {
     }
 
     #[test]
+    fn the_stop_on_the_switch_reaches_the_mega_armed_and_disarmed() {
+        let mut mcu = Mcu::new(McuConfig::default());
+        let mut link = MegaLink::default();
+        let pressed = TickInputs {
+            switch_pressed: true,
+            ..TickInputs::default()
+        };
+        let bytes = link.encode_references([5.0; 4], true, true).unwrap();
+        mcu.receive(&bytes, 1_000);
+        mcu.control_tick(20_000, &pressed);
+        assert!(mcu.stopped_on_switch());
+        let bytes = link.encode_references([5.0; 4], true, false).unwrap();
+        mcu.receive(&bytes, 21_000);
+        assert!(!mcu.stopped_on_switch());
+    }
+
+    #[test]
     fn round_trip_with_the_mcu() {
         let mut mcu = Mcu::new(McuConfig::default());
         let mut link = MegaLink::default();
@@ -513,9 +539,9 @@ mod tests {
         for tick in 1..=5u32 {
             let now_us = tick * 20_000;
             let bytes = link
-                .encode_references([5.0, -5.0, 5.0, -5.0], true)
+                .encode_references([5.0, -5.0, 5.0, -5.0], true, false)
                 .unwrap();
-            assert_eq!(bytes.len(), 6 * FRAME_LEN);
+            assert_eq!(bytes.len(), 7 * FRAME_LEN);
             mcu.receive(&bytes, now_us - 1_000);
             assert!(mcu.solenoid_on());
             let inputs = TickInputs {
@@ -583,7 +609,7 @@ mod tests {
     fn non_finite_references_are_refused() {
         let mut link = MegaLink::default();
         assert_eq!(
-            link.encode_references([0.0, 0.0, f32::INFINITY, 0.0], false),
+            link.encode_references([0.0, 0.0, f32::INFINITY, 0.0], false, false),
             Err(EncodeError::NotFinite {
                 wheel: 2,
                 value: f32::INFINITY

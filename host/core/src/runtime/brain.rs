@@ -47,6 +47,8 @@ pub struct BrainTick {
     pub twist: BodyTwist,
     /// Electromagnet level.
     pub solenoid_on: bool,
+    /// Arm the Mega's stop on its switch ([`crate::mission::MissionOutput::stop_on_switch`]).
+    pub stop_on_switch: bool,
     /// A request to send to the server now.
     pub request: Option<Request>,
 }
@@ -206,6 +208,7 @@ impl Brain {
                 let tick = mission.tick(now_us, pose, switch_pressed);
                 out.twist = tick.twist;
                 out.solenoid_on = tick.solenoid_on;
+                out.stop_on_switch = tick.stop_on_switch;
                 for event in tick.events {
                     if event == MissionEvent::Finished {
                         self.finished = true;

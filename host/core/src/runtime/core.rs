@@ -200,6 +200,9 @@ impl Core {
         );
         outputs.referee = tick.request;
         let mut open_loop_pwm = None;
+        // Only the mission's own drive arms the Mega's stop on the switch: a stop, a hold or
+        // the operator's hand leaves the wheels to the host.
+        let mut stop_on_switch = false;
         if self.stopped {
             self.robot.command_motion(BodyTwist::default());
             self.robot.command_solenoid(false);
@@ -221,11 +224,13 @@ impl Core {
         } else {
             self.robot.command_motion(tick.twist);
             self.robot.command_solenoid(tick.solenoid_on);
+            stop_on_switch = tick.stop_on_switch;
         }
         let wheels = self.robot.tick(now_us);
         outputs.wheels = Some(WheelCommand {
             wheel_speeds_rad_s: wheels.wheel_speeds_rad_s,
             solenoid_on: wheels.solenoid_on,
+            stop_on_switch,
             twist_scale: wheels.twist_scale,
             open_loop_pwm,
         });

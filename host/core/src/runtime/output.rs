@@ -13,6 +13,10 @@ pub struct WheelCommand {
     pub wheel_speeds_rad_s: [f32; 4],
     /// Electromagnet level.
     pub solenoid_on: bool,
+    /// The Mega stops the wheels itself when its switch closes (`U`, on the last stretch of
+    /// a docking approach to a part: [`crate::mission::MissionOutput::stop_on_switch`]).
+    #[serde(skip_serializing_if = "is_false", default)]
+    pub stop_on_switch: bool,
     /// The factor the commanded twist was scaled by to respect the wheel limit (1 = none).
     pub twist_scale: f64,
     /// Open-loop PWM per motor instead of the references (the operator's
@@ -26,6 +30,7 @@ impl WheelCommand {
     pub const STOP: Self = Self {
         wheel_speeds_rad_s: [0.0; 4],
         solenoid_on: false,
+        stop_on_switch: false,
         twist_scale: 1.0,
         open_loop_pwm: None,
     };
@@ -44,9 +49,17 @@ impl WheelCommand {
     pub fn encode(&self, link: &mut MegaLink) -> Result<Vec<u8>, EncodeError> {
         match self.open_loop_pwm {
             Some(pwm) => Ok(link.encode_pwm(pwm, self.solenoid_on)),
-            None => link.encode_references(self.wheel_speeds_rad_s, self.solenoid_on),
+            None => link.encode_references(
+                self.wheel_speeds_rad_s,
+                self.solenoid_on,
+                self.stop_on_switch,
+            ),
         }
     }
+}
+
+fn is_false(value: &bool) -> bool {
+    !value
 }
 
 /// A command for the lidar (bring-up through the seam: the X4 streams only once told).

@@ -240,7 +240,10 @@ impl FakeMega {
                 batches.push(*current);
                 *current = empty_batch(now);
             }
-            Ok(Command::MotorPwm { .. } | Command::Setting { .. }) | Err(_) => {}
+            Ok(
+                Command::MotorPwm { .. } | Command::Setting { .. } | Command::StopOnSwitch { .. },
+            )
+            | Err(_) => {}
         });
     }
 

@@ -13,6 +13,7 @@ use crate::devices::{LinkState, Message};
 const DRIVE: WheelCommand = WheelCommand {
     wheel_speeds_rad_s: [4.0; 4],
     solenoid_on: true,
+    stop_on_switch: false,
     twist_scale: 1.0,
     open_loop_pwm: None,
 };
