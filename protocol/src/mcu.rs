@@ -23,8 +23,8 @@
 //!   wheel's PI and sets its PWM directly; `L` sets the solenoid.
 //! - Stop on the switch (`U`, ours: [`Command::StopOnSwitch`]): while armed, the tick that
 //!   first reads the switch pressed sets every wheel under speed control to a reference of 0
-//!   (the PI brakes it), and every `G`..`J` after it counts as 0, until `U` 0. A reset
-//!   disarms it.
+//!   (the PI brakes it), and every `G`..`J` after it counts as 0 for
+//!   [`SWITCH_STOP_HOLD_US`], or until `U` 0. A reset disarms it.
 //! - Watchdog: if no `G` or `K` arrived for more than [`McuConfig::watchdog_timeout_us`],
 //!   the next tick stops every motor at once (PWM 0, controllers disabled) and releases the
 //!   solenoid [`SOLENOID_HOLD_AFTER_STOP_US`] later, so a carried part stays on the magnet
@@ -86,6 +86,14 @@ pub struct McuConfig {
     /// default; off makes the Mega speak exactly the original protocol.
     pub send_checksums: bool,
 }
+
+/// How long the stop on the switch holds the wheels at zero, µs, unless `U` 0 frees them
+/// sooner. 100 000, as the watchdog's timeout: the host reads the switch in the batch of the
+/// tick that stopped them and stops the wheels itself within about 45 ms (a batch on the
+/// wire, its 20 ms tick, a command); a press too short for the host to see (one batch, lost
+/// on the line, or two batches within one host tick) then costs the robot a pause, not the
+/// leg, since the host's references apply again after it.
+pub const SWITCH_STOP_HOLD_US: u32 = 100_000;
 
 /// How long the solenoid stays on after a watchdog stop, µs (if it was on). The stop sets
 /// PWM 0 and the wheels coast down with the motors' ~0.1 s time constant: released with the
@@ -257,8 +265,11 @@ pub struct Mcu {
     settings_ack: SettingsAck,
     /// `U` armed the stop on the switch.
     stop_on_switch: bool,
-    /// The switch closed while armed: the wheels are held at zero until `U` 0.
-    stopped_on_switch: bool,
+    /// The last tick read the switch pressed with the stop armed.
+    armed_and_pressed: bool,
+    /// When the switch closed with the stop armed, while its hold lasts
+    /// ([`SWITCH_STOP_HOLD_US`]).
+    switch_stop_at_us: Option<u32>,
 }
 
 impl Mcu {
@@ -283,7 +294,8 @@ impl Mcu {
             pending: None,
             bad_messages: 0,
             stop_on_switch: false,
-            stopped_on_switch: false,
+            armed_and_pressed: false,
+            switch_stop_at_us: None,
             settings_ack: SettingsAck {
                 applied: 0,
                 refused: 0,
@@ -331,15 +343,12 @@ impl Mcu {
     fn apply(&mut self, frame: Frame, now_us: u32) {
         match Command::from_frame(frame) {
             Ok(Command::WheelSpeed { wheel, speed_rad_s }) => {
+                let held = self.holds_switch_stop(now_us);
                 let state = &mut self.wheels[wheel.index()];
                 if !matches!(state.drive, Drive::Speed(_)) {
                     state.controller.reset();
                 }
-                state.drive = Drive::Speed(if self.stopped_on_switch {
-                    0.0
-                } else {
-                    speed_rad_s
-                });
+                state.drive = Drive::Speed(if held { 0.0 } else { speed_rad_s });
                 // As in the original, G (wheel 0) feeds the watchdog: the host sends G..J
                 // together, G first.
                 if wheel == Wheel::BackRight {
@@ -355,7 +364,9 @@ impl Mcu {
             Ok(Command::Solenoid { on }) => self.solenoid_requested = on,
             Ok(Command::StopOnSwitch { armed }) => {
                 self.stop_on_switch = armed;
-                self.stopped_on_switch &= armed;
+                if !armed {
+                    self.switch_stop_at_us = None;
+                }
             }
             Ok(Command::Setting { setting, value }) => self.apply_setting(setting, value),
             Err(_) => {
@@ -399,7 +410,13 @@ impl Mcu {
 
     /// True while the switch has stopped the wheels (`U`, [`Command::StopOnSwitch`]).
     pub fn stopped_on_switch(&self) -> bool {
-        self.stopped_on_switch
+        self.switch_stop_at_us.is_some()
+    }
+
+    /// True while the switch's stop holds the wheels at `now_us`.
+    fn holds_switch_stop(&self, now_us: u32) -> bool {
+        self.switch_stop_at_us
+            .is_some_and(|at| now_us.wrapping_sub(at) < SWITCH_STOP_HOLD_US)
     }
 
     /// True while the watchdog has the motors stopped (also at boot, before the host speaks).
@@ -432,14 +449,19 @@ impl Mcu {
             _ => self.config.control_period_us,
         };
         self.last_tick_us = Some(now_us);
-        if self.stop_on_switch && inputs.switch_pressed && !self.stopped_on_switch {
-            self.stopped_on_switch = true;
+        if !self.holds_switch_stop(now_us) {
+            self.switch_stop_at_us = None;
+        }
+        let armed_and_pressed = self.stop_on_switch && inputs.switch_pressed;
+        if armed_and_pressed && !self.armed_and_pressed {
+            self.switch_stop_at_us = Some(now_us);
             for wheel in &mut self.wheels {
                 if let Drive::Speed(_) = wheel.drive {
                     wheel.drive = Drive::Speed(0.0);
                 }
             }
         }
+        self.armed_and_pressed = armed_and_pressed;
         let dt_s = period_us as f32 * 1.0e-6;
         let rad_per_tick = TAU / self.config.ticks_per_wheel_rev;
         let mut measured_rad_s = [0.0; WHEEL_COUNT];
@@ -715,24 +737,29 @@ mod tests {
     }
 
     #[test]
-    fn armed_the_mega_brakes_at_the_tick_that_reads_the_switch_and_stays_stopped() {
+    fn armed_the_mega_brakes_from_the_tick_that_reads_the_switch_for_the_hold() {
         let pwm = approach_onto_the_switch(true, None);
         assert!(pwm[4] > 0, "driving before the switch: {pwm:?}");
-        // From the tick that reads it, the references are 0 whatever the host still sends:
-        // the PI brakes the turning wheel.
-        for (i, &p) in pwm.iter().enumerate().skip(5) {
+        // From the tick that reads it (5, at 100 ms) for the 100 ms hold, the references are
+        // 0 whatever the host still sends: the PI brakes the turning wheel.
+        for (i, &p) in pwm.iter().enumerate().take(10).skip(5) {
             assert!(p < pwm[4], "tick {i} did not brake: {pwm:?}");
         }
-        assert!(pwm[11] <= 0, "still driving at the end: {pwm:?}");
+        assert!(pwm[9] <= 0, "still driving at the hold's end: {pwm:?}");
+        // A host that did not see the press gets its wheels back after the hold.
+        assert!(pwm[11] > 0, "{pwm:?}");
     }
 
     #[test]
     fn disarmed_or_never_armed_the_switch_leaves_the_wheels_to_the_host() {
         let never = approach_onto_the_switch(false, None);
         assert!(never.iter().skip(1).all(|&p| p > 0), "{never:?}");
-        // Disarmed at tick 8, the host's 10 rad/s drives the wheels again.
-        let freed = approach_onto_the_switch(true, Some(8));
-        assert!(freed[7] <= 0 && freed[11] > 0, "{freed:?}");
+        // Disarmed at tick 6, within the hold, the host's 10 rad/s drives the wheels again.
+        let freed = approach_onto_the_switch(true, Some(6));
+        assert!(
+            freed[5] < freed[4] && freed[8] > 0 && freed[9] > 0,
+            "{freed:?}"
+        );
     }
 
     #[test]

@@ -164,7 +164,7 @@ pub enum Command {
     },
     /// `U` (ours): while armed, the Mega stops the wheels under speed control itself, at the
     /// control tick that first reads the box switch pressed, and holds their references at
-    /// zero until the host disarms it. The host arms it on the last stretch of a docking
+    /// zero for [`crate::mcu::SWITCH_STOP_HOLD_US`] or until the host disarms it. The host arms it on the last stretch of a docking
     /// approach to a part, so the robot stops up to a telemetry batch, the host's tick, a
     /// command and a control period sooner than by the host's own reading of the switch
     /// (about 30 ms, some 2 mm at the approach's 6 cm/s), which is where its body met a
@@ -519,23 +519,15 @@ mod tests {
                 value: 0x0400_0001
             })
         );
-        assert_eq!(
-            Command::from_frame(frame(b'L', 2)),
-            Err(MessageError::NotBoolean {
-                channel: b'L',
-                value: 2
-            })
-        );
+        for channel in [SOLENOID_CHANNEL, STOP_ON_SWITCH_CHANNEL] {
+            assert_eq!(
+                Command::from_frame(frame(channel, 2)),
+                Err(MessageError::NotBoolean { channel, value: 2 })
+            );
+        }
         assert_eq!(
             Command::from_frame(frame(b'S', f32::INFINITY.to_bits())),
             Err(MessageError::NotFinite { channel: b'S' })
-        );
-        assert_eq!(
-            Command::from_frame(frame(b'U', 2)),
-            Err(MessageError::NotBoolean {
-                channel: b'U',
-                value: 2
-            })
         );
         assert_eq!(
             Command::from_frame(frame(b'V', 0)),

@@ -1681,6 +1681,11 @@ mod tests {
             self.progress
         }
 
+        /// All along a leg to a part (and on, until the next leg).
+        fn stops_on_switch(&self) -> bool {
+            self.dock
+        }
+
         fn update(&mut self, _now_us: u64, _pose: Pose2, switch: bool) -> (BodyTwist, Arrival) {
             if self.failing {
                 return (BodyTwist::default(), Arrival::Failed);
@@ -1995,6 +2000,29 @@ mod tests {
         assert_eq!(m.actions().outcomes, [(A, true)]);
         assert_eq!(m.navigator.goals, [(A.pick, true), (A.drop, false)]);
         assert!(m.is_finished());
+    }
+
+    #[test]
+    fn the_mega_stops_on_its_switch_only_while_the_robot_goes_to_a_pick() {
+        let mut m = mission(vec![A]);
+        let mut armed_in = Vec::new();
+        for k in 0..200u64 {
+            let pressed =
+                matches!(m.state, State::ToPick { .. } | State::Gripping { .. }) || m.solenoid_on;
+            let out = m.tick(k * 20_000, Pose2::default(), pressed);
+            if out.stop_on_switch {
+                armed_in.push(m.activity());
+            }
+            // Gripping, backing out and carrying, the navigator still says it docks on the
+            // switch (its leg was to the part), but the mission no longer arms the stop.
+            assert!(
+                !out.stop_on_switch || matches!(m.state, State::ToPick { .. }),
+                "armed in {:?}",
+                m.activity()
+            );
+        }
+        assert!(m.is_finished());
+        assert!(!armed_in.is_empty());
     }
 
     /// Action `A` run until the robot stands at its drop, confirming it: the mission, the
