@@ -31,7 +31,8 @@ use ratf_protocol::messages::{Command as MegaCommand, WHEEL_COUNT};
 /// The bound of issue 13: signal (or panic) to zero references and magnet off on the wire.
 const STOP_BOUND: Duration = Duration::from_millis(50);
 
-/// One batch the robot wrote to its Mega (`G H I J L`), stamped when the tap read it.
+/// One batch the robot wrote to its Mega (`G H I J L`; the `U` after it is not kept), stamped
+/// when the tap read it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Batch {
     at: Instant,

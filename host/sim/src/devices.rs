@@ -304,7 +304,7 @@ impl SimDevices {
     }
 
     /// Carry the core's outputs into the world: the wheel references (or the open-loop PWM)
-    /// and the magnet to the Mega as a `G H I J L` (or `K K K K L`) batch, and the lidar's
+    /// and the magnet to the Mega as a `G H I J L U` (or `K K K K L`) batch, and the lidar's
     /// start command (its data flows from the next step on).
     pub fn apply_outputs(&mut self, outputs: &Outputs) {
         if outputs.lidar == Some(LidarCommand::StartScan) {

@@ -17,7 +17,7 @@ pub(crate) const FLOOR_DIAGONAL_M: f64 = 2.3;
 /// 0.26 m straight out of one before its back reaches the other.
 pub(crate) const STRAIGHT_RUN_M: f64 = 0.26;
 
-/// The host's reference period, µs: it sends `G H I J L` on its own 50 Hz tick
+/// The host's reference period, µs: it sends `G H I J L U` on its own 50 Hz tick
 /// (`ratf_sim::devices::HOST_TICK_PERIOD_US`, `ratf_host::devices::HOST_TICK_PERIOD_US`).
 pub(crate) const HOST_REFERENCE_PERIOD_US: u32 = 20_000;
 

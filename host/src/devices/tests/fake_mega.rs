@@ -27,7 +27,8 @@ const TICKS_PER_PWM: i16 = 8;
 /// Most bytes of noise put on the line at once.
 const MAX_GARBAGE: u64 = 12;
 
-/// One batch the host wrote (`G H I J L`), as the Mega's own decoder saw it.
+/// One batch the host wrote (`G H I J L`; the `U` after it is not kept), as the Mega's own
+/// decoder saw it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct HostBatch {
     /// When its last byte was read.
