@@ -408,7 +408,9 @@ impl Mcu {
         self.solenoid_requested && (!self.timed_out || self.stopped_at_us.is_some())
     }
 
-    /// True while the switch has stopped the wheels (`U`, [`Command::StopOnSwitch`]).
+    /// True from the tick at which the switch stopped the wheels (`U`,
+    /// [`Command::StopOnSwitch`]) until `U` 0 or the first tick after its hold
+    /// ([`SWITCH_STOP_HOLD_US`]).
     pub fn stopped_on_switch(&self) -> bool {
         self.switch_stop_at_us.is_some()
     }

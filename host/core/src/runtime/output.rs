@@ -15,7 +15,7 @@ pub struct WheelCommand {
     pub solenoid_on: bool,
     /// The Mega stops the wheels itself when its switch closes (`U`, on the last stretch of
     /// a docking approach to a part: [`crate::mission::MissionOutput::stop_on_switch`]).
-    #[serde(skip_serializing_if = "is_false", default)]
+    #[serde(skip_serializing_if = "std::ops::Not::not", default)]
     pub stop_on_switch: bool,
     /// The factor the commanded twist was scaled by to respect the wheel limit (1 = none).
     pub twist_scale: f64,
@@ -56,10 +56,6 @@ impl WheelCommand {
             ),
         }
     }
-}
-
-fn is_false(value: &bool) -> bool {
-    !value
 }
 
 /// A command for the lidar (bring-up through the seam: the X4 streams only once told).
