@@ -18,7 +18,8 @@ pub struct NavigationConfig {
     /// `dock_speed_m_s` 0.20: on the realistic world's tuning seeds 1–10 and 61–70
     /// (calibrated) 4–5 % faster per round with 7 collisions against 11, but on the held-out
     /// seeds 11–60 only 2–4 % faster with 47 collisions against 29 and 2 actions given up:
-    /// rejected.
+    /// rejected. 0.70 alone at `804ca0e` (tuning seeds 61–110, calibrated): realistic 1 % or
+    /// less faster, harsh 194 → 289 collisions (README: Worlds): rejected.
     pub max_speed_m_s: f64,
     /// Along-track acceleration limit, m/s². 2.0: friction allows μg = 0.7 × 9.81 =
     /// 6.9 m/s² (`traction.friction_coefficient`), the motor (τ = 0.1 s) reaches 0.6 m/s in
@@ -31,7 +32,9 @@ pub struct NavigationConfig {
     /// Yaw rate limit, rad/s. 3.5: rotation adds k·ω = 0.1725 m × 3.5 = 0.60 m/s to each
     /// rim (k = half the wheelbase sum, `robot`), as much as the top speed; the robot turns
     /// mostly where it moves slowly, and beyond the 0.73 m/s rim limit the body twist is
-    /// scaled down as a whole (direction kept). 2.0 was 4 % slower in the benchmark.
+    /// scaled down as a whole (direction kept). 2.0 was 4 % slower in the benchmark; 4.2 at
+    /// `804ca0e` gained nothing in the realistic world and cost 24 collisions in the harsh one
+    /// (README: Worlds).
     pub max_yaw_rate_rad_s: f64,
     /// Length over which a corner's change of direction is spread, m. 0.05: tuned in the
     /// simulator. A corner of angle φ at speed v changes the velocity by 2·v·sin(φ/2)
@@ -50,7 +53,7 @@ pub struct NavigationConfig {
     pub cross_track_gain_per_s: f64,
     /// Heading gain, 1/s. 6.0: tuned in the simulator (the original's `k_w` is 4,
     /// original-system.md §6.3; with the lag compensation 6 is 4 % faster and still does not
-    /// overshoot).
+    /// overshoot). 9 left no run with a full score at `804ca0e` (README: Worlds).
     pub heading_gain_per_s: f64,
     /// Lag compensation, s: the follower acts on the estimate moved on by its last command
     /// over this time. 0.12: the motor time constant 0.1 s (`motor.time_constant_s`) plus
