@@ -1180,7 +1180,8 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     /// pick slot when `returning`), and settle before the back-out.
     fn release(&mut self, action: Action, returning: bool, now_us: u64) {
         self.solenoid_on = false;
-        let push = if self.config.push_short_drops && !returning {
+        // Only a drop is pushed (`settle_release`: its back-out confirms the release).
+        let push = if self.config.push_short_drops {
             Push::Pending
         } else {
             Push::Done
@@ -1231,11 +1232,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
         };
         let short_m = self.fix_short_of_drop(action.drop, pose, fix);
         if creeps < MAX_DROP_CREEPS && Self::creeps_on(short_m) {
-            let limits = CreepLimits {
-                speed_m_s: self.config.drop_creep_speed_m_s,
-                limit_m: short_m,
-            };
-            let creep = Creep::new(pose, limits);
+            let creep = self.drop_creep(pose, short_m);
             self.state = State::ConfirmingDrop {
                 action,
                 since_us,
@@ -1265,6 +1262,15 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
     /// a slip).
     fn creeps_on(short_m: f64) -> bool {
         short_m > DROP_SHORT_TOLERANCE_M && short_m <= MAX_DROP_CREEP_M
+    }
+
+    /// The creep on to a drop from `pose`, `short_m` far, at `drop_creep_speed_m_s`.
+    fn drop_creep(&self, pose: Pose2, short_m: f64) -> Creep {
+        let limits = CreepLimits {
+            speed_m_s: self.config.drop_creep_speed_m_s,
+            limit_m: short_m,
+        };
+        Creep::new(pose, limits)
     }
 
     /// The magnet off since `since_us`: stand for `release_settle_s`, then back out. With a
@@ -1297,13 +1303,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
             let short_m = self.fix_short_of_drop(action.drop, pose, fix);
             push = Push::Done;
             if Self::creeps_on(short_m) {
-                let creep = Creep::new(
-                    pose,
-                    CreepLimits {
-                        speed_m_s: self.config.drop_creep_speed_m_s,
-                        limit_m: short_m,
-                    },
-                );
+                let creep = self.drop_creep(pose, short_m);
                 self.state = State::Releasing {
                     then,
                     since_us,
@@ -1312,7 +1312,7 @@ impl<N: Navigator, A: ActionSource> Mission<N, A> {
                 return creep.update(pose, false).0;
             }
         }
-        if settled && !matches!(push, Push::Pushing(_)) {
+        if settled {
             self.state = State::BackingOut {
                 from: pose,
                 then,
